@@ -1,0 +1,53 @@
+//! View cells: the constrained Delaunay triangulation (spade) of free space,
+//! refined so that no cell edge exceeds a bound (METHOD.md 2).
+//!
+//! OWNER: geometry helper. The types and functions below are the agreed
+//! interface.
+
+use glam::DVec2;
+
+use crate::Result;
+use crate::geometry::Block;
+use crate::model::Polygon;
+
+/// Default margin in metres by which the footprints' bounding box is grown
+/// to make the region of interest.
+pub const DEFAULT_MARGIN: f64 = 50.0;
+/// Default upper bound on a cell edge, in metres.
+pub const DEFAULT_MAX_CELL_EDGE: f64 = 30.0;
+
+/// How to cut free space into cells.
+#[derive(Clone, Debug)]
+pub struct CellParams {
+    /// Margin around the footprints' bounding box (ignored with `region`).
+    pub margin: f64,
+    /// No cell edge may be longer than this.
+    pub max_edge: f64,
+    /// A user-given region of interest (local metres) instead of the box.
+    pub region: Option<Polygon>,
+}
+
+impl Default for CellParams {
+    fn default() -> Self {
+        CellParams {
+            margin: DEFAULT_MARGIN,
+            max_edge: DEFAULT_MAX_CELL_EDGE,
+            region: None,
+        }
+    }
+}
+
+/// The view cells: triangles covering free space exactly.
+#[derive(Clone, Debug)]
+pub struct Cells {
+    /// Counter-clockwise triangles in local metres, in a deterministic order.
+    pub triangles: Vec<[DVec2; 3]>,
+    /// The region of interest that was triangulated.
+    pub region: Polygon,
+}
+
+/// Triangulate the free space of the region minus the blocks' ground
+/// footprints (level 0 of each block).
+pub fn triangulate(_blocks: &[Block], _params: &CellParams) -> Result<Cells> {
+    todo!("geometry helper")
+}

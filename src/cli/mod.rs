@@ -1,0 +1,41 @@
+//! The command line: argument definitions and one module per subcommand.
+//! Each subcommand module owns its arguments and its printing; the work
+//! itself is done by the library modules.
+
+pub mod common;
+pub mod generate;
+pub mod prepare;
+
+use clap::{Parser, Subcommand};
+
+/// Bake conservative potentially-visible sets (PVS) for cities.
+#[derive(Parser, Debug)]
+#[command(name = "citypvs", version, about, long_about = None)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Write a procedural city as lon/lat GeoJSON.
+    Generate(generate::GenerateArgs),
+    /// Read a city, merge and shrink footprints, cut free space into view cells, and report.
+    Prepare(prepare::PrepareArgs),
+}
+
+/// Parse the arguments, run the subcommand, print any error, return the exit status.
+pub fn main() -> i32 {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Generate(args) => generate::run(&args),
+        Command::Prepare(args) => prepare::run(&args),
+    };
+    match result {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("error: {e}");
+            2
+        }
+    }
+}

@@ -1,0 +1,64 @@
+//! `citypvs prepare`: read a city, build blocks, occluders and cells, report.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use clap::Args;
+
+use super::common::{InputArgs, SceneArgs};
+use crate::Result;
+use crate::input::read_city;
+use crate::prepare::{StageTime, prepare};
+
+#[derive(Args, Debug)]
+pub struct PrepareArgs {
+    /// The city file (GeoJSON, OSM PBF or CityJSON).
+    pub city: PathBuf,
+    #[command(flatten)]
+    pub input: InputArgs,
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    /// Write the view cells as GeoJSON in the input's frame.
+    #[arg(long, value_name = "FILE")]
+    pub export_cells: Option<PathBuf>,
+    /// Write the shrunk occluders as GeoJSON in the input's frame.
+    #[arg(long, value_name = "FILE")]
+    pub export_occluders: Option<PathBuf>,
+    /// Print the summary as one JSON object.
+    #[arg(long)]
+    pub json: bool,
+}
+
+pub fn run(args: &PrepareArgs) -> Result<i32> {
+    let t = Instant::now();
+    let city = read_city(&args.city, &args.input.options())?;
+    let read_seconds = t.elapsed().as_secs_f64();
+    let params = args.scene.params(&city.frame)?;
+    let mut scene = prepare(city, &params)?;
+    scene.timings.insert(
+        0,
+        StageTime {
+            stage: "read",
+            seconds: read_seconds,
+        },
+    );
+    if let Some(path) = &args.export_cells {
+        crate::atomic::write_atomically(path, crate::prepare::cells_geojson(&scene).as_bytes())?;
+    }
+    if let Some(path) = &args.export_occluders {
+        crate::atomic::write_atomically(
+            path,
+            crate::prepare::occluders_geojson(&scene).as_bytes(),
+        )?;
+    }
+    let summary = crate::prepare::summary(&scene);
+    if args.json {
+        println!(
+            "{}",
+            serde_json::to_string(&summary).expect("summary serialises")
+        );
+    } else {
+        print!("{}", summary.to_text());
+    }
+    Ok(0)
+}

@@ -1,0 +1,243 @@
+//! Scene preparation: runs the front half of the pipeline (merge, shrink,
+//! triangulate) over a city that has been read, and times each stage.
+
+use std::time::Instant;
+
+use crate::Result;
+use crate::cells::{CellParams, Cells, triangulate};
+use crate::geometry::{Block, Occluder, merge_blocks, shrink_blocks};
+use crate::input::City;
+
+/// Default erosion distance eps in metres (METHOD.md 4).
+pub const DEFAULT_EPS: f64 = 1.0;
+
+/// Parameters of scene preparation.
+#[derive(Clone, Debug)]
+pub struct PrepareParams {
+    /// Erosion distance in metres.
+    pub eps: f64,
+    /// How to cut free space into cells.
+    pub cells: CellParams,
+}
+
+impl Default for PrepareParams {
+    fn default() -> Self {
+        PrepareParams {
+            eps: DEFAULT_EPS,
+            cells: CellParams::default(),
+        }
+    }
+}
+
+/// Seconds spent in one named stage.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct StageTime {
+    pub stage: &'static str,
+    pub seconds: f64,
+}
+
+/// A prepared scene: the city, its blocks, shrunk occluders and view cells.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    pub city: City,
+    pub blocks: Vec<Block>,
+    pub occluders: Vec<Occluder>,
+    pub cells: Cells,
+    pub eps: f64,
+    pub timings: Vec<StageTime>,
+}
+
+/// Run merge, shrink and triangulation over a city.
+pub fn prepare(city: City, params: &PrepareParams) -> Result<Scene> {
+    if !(params.eps > 0.0 && params.eps.is_finite()) {
+        return Err(crate::Error::new(format!(
+            "--eps must be a positive number of metres, got {}",
+            params.eps
+        )));
+    }
+    let mut timings = Vec::new();
+    let t = Instant::now();
+    let blocks = merge_blocks(&city.buildings);
+    timings.push(StageTime {
+        stage: "merge",
+        seconds: t.elapsed().as_secs_f64(),
+    });
+    let t = Instant::now();
+    let occluders = shrink_blocks(&blocks, params.eps);
+    timings.push(StageTime {
+        stage: "erode",
+        seconds: t.elapsed().as_secs_f64(),
+    });
+    let t = Instant::now();
+    let cells = triangulate(&blocks, &params.cells)?;
+    timings.push(StageTime {
+        stage: "triangulate",
+        seconds: t.elapsed().as_secs_f64(),
+    });
+    Ok(Scene {
+        city,
+        blocks,
+        occluders,
+        cells,
+        eps: params.eps,
+        timings,
+    })
+}
+
+/// What preparation made, for printing or JSON.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct PrepareSummary {
+    pub features_read: usize,
+    pub buildings: usize,
+    pub repaired: usize,
+    pub skipped: usize,
+    pub warnings: Vec<crate::input::Warning>,
+    pub blocks: usize,
+    pub levels: usize,
+    pub occluders: usize,
+    pub cells: usize,
+    pub region_area_m2: f64,
+    pub footprint_area_m2: f64,
+    pub free_area_m2: f64,
+    pub timings: Vec<StageTime>,
+}
+
+/// Summarise a prepared scene.
+pub fn summary(scene: &Scene) -> PrepareSummary {
+    use crate::model::{multipolygon_area, polygon_area};
+    let report = &scene.city.report;
+    let footprint_area: f64 = scene
+        .blocks
+        .iter()
+        .filter_map(|b| b.levels.first())
+        .map(|l| multipolygon_area(&l.area))
+        .sum();
+    let free_area: f64 = scene
+        .cells
+        .triangles
+        .iter()
+        .map(|t| 0.5 * (t[1] - t[0]).perp_dot(t[2] - t[0]))
+        .sum();
+    let mut warnings = report.repaired.clone();
+    warnings.extend(report.skipped.iter().cloned());
+    PrepareSummary {
+        features_read: report.features_read,
+        buildings: scene.city.buildings.len(),
+        repaired: report.repaired.len(),
+        skipped: report.skipped.len(),
+        warnings,
+        blocks: scene.blocks.len(),
+        levels: scene.blocks.iter().map(|b| b.levels.len()).sum(),
+        occluders: scene.occluders.len(),
+        cells: scene.cells.triangles.len(),
+        region_area_m2: polygon_area(&scene.cells.region),
+        footprint_area_m2: footprint_area,
+        free_area_m2: free_area,
+        timings: scene.timings.clone(),
+    }
+}
+
+impl PrepareSummary {
+    /// A short human-readable report.
+    pub fn to_text(&self) -> String {
+        use std::fmt::Write;
+        let mut s = String::new();
+        let _ = writeln!(s, "features read   {}", self.features_read);
+        let _ = writeln!(
+            s,
+            "buildings       {} ({} repaired, {} skipped)",
+            self.buildings, self.repaired, self.skipped
+        );
+        for w in self.warnings.iter().take(20) {
+            let _ = writeln!(s, "  warning: feature {}: {}", w.feature, w.message);
+        }
+        if self.warnings.len() > 20 {
+            let _ = writeln!(
+                s,
+                "  ... and {} more warnings (use --json to see all)",
+                self.warnings.len() - 20
+            );
+        }
+        let _ = writeln!(
+            s,
+            "blocks          {} ({} levels, {} shrunk occluders)",
+            self.blocks, self.levels, self.occluders
+        );
+        let _ = writeln!(s, "cells           {}", self.cells);
+        let _ = writeln!(
+            s,
+            "area            region {:.0} m2, footprints {:.0} m2, free {:.0} m2",
+            self.region_area_m2, self.footprint_area_m2, self.free_area_m2
+        );
+        for t in &self.timings {
+            let _ = writeln!(s, "time {:<11} {:.3} s", t.stage, t.seconds);
+        }
+        s
+    }
+}
+
+fn ring_to_input(frame: &crate::input::Frame, ring: &[glam::DVec2]) -> serde_json::Value {
+    let mut coords: Vec<serde_json::Value> = ring
+        .iter()
+        .map(|p| {
+            let (x, y) = frame.to_input(*p);
+            serde_json::json!([x, y])
+        })
+        .collect();
+    if let Some(first) = coords.first().cloned() {
+        coords.push(first);
+    }
+    serde_json::Value::Array(coords)
+}
+
+fn polygon_to_input(
+    frame: &crate::input::Frame,
+    polygon: &crate::model::Polygon,
+) -> serde_json::Value {
+    let mut rings = vec![ring_to_input(frame, &polygon.exterior)];
+    rings.extend(polygon.holes.iter().map(|h| ring_to_input(frame, h)));
+    serde_json::Value::Array(rings)
+}
+
+fn feature_collection(features: Vec<serde_json::Value>) -> String {
+    serde_json::to_string(&serde_json::json!({ "type": "FeatureCollection", "features": features }))
+        .expect("GeoJSON serialises")
+}
+
+/// The view cells as GeoJSON in the input's frame, each with its index.
+pub fn cells_geojson(scene: &Scene) -> String {
+    let frame = &scene.city.frame;
+    let features = scene
+        .cells
+        .triangles
+        .iter()
+        .enumerate()
+        .map(|(i, t)| {
+            serde_json::json!({
+                "type": "Feature",
+                "properties": { "cell": i },
+                "geometry": { "type": "Polygon", "coordinates": [ring_to_input(frame, t)] },
+            })
+        })
+        .collect();
+    feature_collection(features)
+}
+
+/// The shrunk occluders as GeoJSON in the input's frame, with block, level and height.
+pub fn occluders_geojson(scene: &Scene) -> String {
+    let frame = &scene.city.frame;
+    let features = scene
+        .occluders
+        .iter()
+        .map(|o| {
+            let polygons: Vec<serde_json::Value> =
+                o.shape.iter().map(|p| polygon_to_input(frame, p)).collect();
+            serde_json::json!({
+                "type": "Feature",
+                "properties": { "block": o.block, "level": o.level, "height": o.height },
+                "geometry": { "type": "MultiPolygon", "coordinates": polygons },
+            })
+        })
+        .collect();
+    feature_collection(features)
+}
