@@ -1,0 +1,231 @@
+//! The software cull map of one sample (METHOD.md 5): a window of the global
+//! pixel grid holding U_V, the max over shrunk occluder edges of the shadow
+//! height at each pixel centre, and the conservative occludee test against
+//! it. Heights are stored as f32 rounded down, so rounding only lowers a
+//! shadow.
+
+use glam::DVec2;
+
+use super::index::{PixelGrid, Span};
+use crate::model::Rect;
+
+/// Pixel centres closer than this (metres) to a shadow quad's border are
+/// left out of it, so floating-point rounding never extends a shadow.
+const BORDER_TOLERANCE: f64 = 1e-7;
+
+/// A rectangular window `[i0, i0 + width) x [j0, j0 + height)` of the global
+/// pixel grid with one shadow height per pixel.
+#[derive(Clone, Debug)]
+pub struct CullWindow {
+    pub grid: PixelGrid,
+    pub i0: i32,
+    pub j0: i32,
+    pub width: usize,
+    pub height: usize,
+    pub heights: Vec<f32>,
+}
+
+/// The largest f32 not above `v`.
+pub fn f32_down(v: f64) -> f32 {
+    let f = v as f32;
+    if f as f64 > v { f.next_down() } else { f }
+}
+
+impl CullWindow {
+    pub fn new(grid: PixelGrid) -> Self {
+        CullWindow {
+            grid,
+            i0: 0,
+            j0: 0,
+            width: 0,
+            height: 0,
+            heights: Vec::new(),
+        }
+    }
+
+    /// Cover the square of half-size `radius` around `centre` (whole pixels),
+    /// every pixel at 0 (nothing hidden).
+    pub fn reset_around(&mut self, centre: DVec2, radius: f64) {
+        let (i0, j0) = self.grid.pixel_of(centre - DVec2::splat(radius));
+        let (i1, j1) = self.grid.pixel_of(centre + DVec2::splat(radius));
+        self.reset(i0, j0, (i1 - i0 + 1) as usize, (j1 - j0 + 1) as usize);
+    }
+
+    /// Cover the given pixels, every pixel at 0.
+    pub fn reset(&mut self, i0: i32, j0: i32, width: usize, height: usize) {
+        self.i0 = i0;
+        self.j0 = j0;
+        self.width = width;
+        self.height = height;
+        self.heights.clear();
+        self.heights.resize(width * height, 0.0);
+    }
+
+    /// The window's area in local metres.
+    pub fn rect(&self) -> Rect {
+        let k = self.grid.pixel;
+        Rect {
+            min: DVec2::new(self.i0 as f64 * k, self.j0 as f64 * k),
+            max: DVec2::new(
+                (self.i0 + self.width as i32) as f64 * k,
+                (self.j0 + self.height as i32) as f64 * k,
+            ),
+        }
+    }
+
+    /// Shadow height at the pixel containing `p`, or None outside the window.
+    pub fn at_point(&self, p: DVec2) -> Option<f32> {
+        let (i, j) = self.grid.pixel_of(p);
+        let (x, y) = (i - self.i0, j - self.j0);
+        if x < 0 || y < 0 || x as usize >= self.width || y as usize >= self.height {
+            return None;
+        }
+        Some(self.heights[y as usize * self.width + x as usize])
+    }
+
+    /// Raise the map to the shadow of the occluder edge `a`-`b` at `height`
+    /// seen from `(v, eye)`: the quad `a, b, b + s(b - v), a + s(a - v)`
+    /// under the plane through the eye and the edge's top.
+    pub fn rasterise_shadow(&mut self, v: DVec2, eye: f64, a: DVec2, b: DVec2, height: f64) {
+        let (mut a, mut b) = (a, b);
+        if (a - v).perp_dot(b - v) < 0.0 {
+            std::mem::swap(&mut a, &mut b);
+        }
+        let dir = b - a;
+        let len = dir.length();
+        if len <= 0.0 {
+            return;
+        }
+        // Unit normal of the edge pointing away from the eye.
+        let mut n = DVec2::new(dir.y, -dir.x) / len;
+        let mut dist_to_line = (a - v).dot(n);
+        if dist_to_line < 0.0 {
+            n = -n;
+            dist_to_line = -dist_to_line;
+        }
+        if dist_to_line <= BORDER_TOLERANCE {
+            return;
+        }
+        let ua = (a - v).normalize();
+        let ub = (b - v).normalize();
+        // Three half-planes c.x * x + c.y * y + c.z >= tol (in metres):
+        // beyond the edge line, left of the ray to a, right of the ray to b.
+        let planes = [
+            (n, -(v.dot(n) + dist_to_line)),
+            (DVec2::new(-ua.y, ua.x), -DVec2::new(-ua.y, ua.x).dot(v)),
+            (DVec2::new(ub.y, -ub.x), -DVec2::new(ub.y, -ub.x).dot(v)),
+        ];
+        let rise = (height - eye) / dist_to_line;
+        let k = self.grid.pixel;
+        for row in 0..self.height {
+            let yc = (self.j0 + row as i32) as f64 * k + 0.5 * k;
+            let (mut x_lo, mut x_hi) = (f64::NEG_INFINITY, f64::INFINITY);
+            let mut empty = false;
+            for (c, off) in planes {
+                let rest = c.y * yc + off - BORDER_TOLERANCE;
+                if c.x.abs() < 1e-15 {
+                    if rest < 0.0 {
+                        empty = true;
+                    }
+                } else if c.x > 0.0 {
+                    x_lo = x_lo.max(-rest / c.x);
+                } else {
+                    x_hi = x_hi.min(-rest / c.x);
+                }
+            }
+            if empty || x_lo > x_hi {
+                continue;
+            }
+            let i_start = ((x_lo / k - 0.5).ceil() as i64).max(self.i0 as i64);
+            let i_end =
+                ((x_hi / k - 0.5).floor() as i64).min(self.i0 as i64 + self.width as i64 - 1);
+            if i_start > i_end {
+                continue;
+            }
+            let base = row * self.width;
+            for i in i_start..=i_end {
+                let xc = i as f64 * k + 0.5 * k;
+                let d = (DVec2::new(xc, yc) - v).dot(n);
+                let shadow = eye + rise * d;
+                if shadow > 0.0 {
+                    let cell = &mut self.heights[base + (i - self.i0 as i64) as usize];
+                    let s = f32_down(shadow);
+                    if s > *cell {
+                        *cell = s;
+                    }
+                }
+            }
+        }
+    }
+
+    /// True when the map hides height `top` at the pixels under points along
+    /// the segment `a`-`b` (a test for dropping occluded occluders; dropping
+    /// any occluder is always conservative).
+    pub fn segment_hidden(&self, a: DVec2, b: DVec2, top: f64) -> bool {
+        let steps = ((a.distance(b) / (0.5 * self.grid.pixel)).ceil() as usize).max(1);
+        (0..=steps).all(
+            |s| match self.at_point(a.lerp(b, s as f64 / steps as f64)) {
+                Some(u) => u as f64 >= top,
+                None => false,
+            },
+        )
+    }
+
+    /// Test an object's pixels that fall inside the window: false as soon as
+    /// one has a shadow lower than `top`. Pixels outside the window are not
+    /// looked at; `outside` is set when there are any.
+    pub fn spans_hidden(&self, spans: &[Span], top: f64, outside: &mut bool) -> bool {
+        let (i_end, j_end) = (self.i0 + self.width as i32, self.j0 + self.height as i32);
+        for s in spans {
+            if s.j < self.j0 || s.j >= j_end {
+                *outside = true;
+                continue;
+            }
+            if s.i0 < self.i0 || s.i1 > i_end {
+                *outside = true;
+            }
+            let (lo, hi) = (s.i0.max(self.i0), s.i1.min(i_end));
+            let row = &self.heights[(s.j - self.j0) as usize * self.width..];
+            for i in lo..hi {
+                if (row[(i - self.i0) as usize] as f64) < top {
+                    return false;
+                }
+            }
+        }
+        true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn wall_shadow_rises_behind_a_tall_wall() {
+        let grid = PixelGrid { pixel: 1.0 };
+        let mut w = CullWindow::new(grid);
+        w.reset_around(DVec2::ZERO, 30.0);
+        // Wall 10 m high along x = 5, eye at 2 m at the origin.
+        w.rasterise_shadow(
+            DVec2::ZERO,
+            2.0,
+            DVec2::new(5.0, -10.0),
+            DVec2::new(5.0, 10.0),
+            10.0,
+        );
+        // In front of the wall: nothing.
+        assert_eq!(w.at_point(DVec2::new(2.5, 0.5)), Some(0.0));
+        // At x = 10.5 the plane is at 2 + 8 * 10.5 / 5 = 18.8 m.
+        let u = w.at_point(DVec2::new(10.2, 0.2)).unwrap();
+        assert!((u as f64 - 18.8).abs() < 1e-4 && (u as f64) <= 18.8, "{u}");
+        // Outside the wedge (beyond y = 2 * x): nothing.
+        assert_eq!(w.at_point(DVec2::new(6.5, 20.5)), Some(0.0));
+    }
+
+    #[test]
+    fn rounding_goes_down() {
+        for v in [0.1f64, 1.0 / 3.0, 18.8, 1e-9, 12345.678] {
+            assert!((f32_down(v) as f64) <= v);
+        }
+    }
+}

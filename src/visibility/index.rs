@@ -1,0 +1,300 @@
+//! Scene indexes built once per bake and shared by every sample: the shrunk
+//! occluder edges in a bucket grid, each object's conservative pixel spans
+//! on the global cull-map grid, and the object height pyramid used to reject
+//! whole districts with one horizon test.
+
+use glam::DVec2;
+
+use crate::geometry::Occluder;
+use crate::model::{Building, Rect, distance_to_segment, point_in_multipolygon, polygon_edges};
+
+/// One edge of a shrunk occluder level, with the solid on its left.
+#[derive(Clone, Copy, Debug)]
+pub struct OccluderEdge {
+    pub a: DVec2,
+    pub b: DVec2,
+    /// Height of the level in metres.
+    pub height: f64,
+    /// Index of the next edge along the same ring.
+    pub next: u32,
+}
+
+/// The pixel grid shared by every cull map: pixel (i, j) covers
+/// `[i k, (i+1) k] x [j k, (j+1) k]` in local metres.
+#[derive(Clone, Copy, Debug)]
+pub struct PixelGrid {
+    pub pixel: f64,
+}
+
+impl PixelGrid {
+    /// Centre of pixel (i, j).
+    pub fn centre(&self, i: i32, j: i32) -> DVec2 {
+        DVec2::new((i as f64 + 0.5) * self.pixel, (j as f64 + 0.5) * self.pixel)
+    }
+
+    /// The pixel containing `p`.
+    pub fn pixel_of(&self, p: DVec2) -> (i32, i32) {
+        (
+            (p.x / self.pixel).floor() as i32,
+            (p.y / self.pixel).floor() as i32,
+        )
+    }
+}
+
+/// A run of pixels `i0..i1` in row `j`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Span {
+    pub j: i32,
+    pub i0: i32,
+    pub i1: i32,
+}
+
+/// A PVS object as the visibility test sees it.
+#[derive(Clone, Debug)]
+pub struct ObjectRaster {
+    pub height: f64,
+    pub rect: Rect,
+    /// Every pixel the unshrunk footprint may overlap (a superset).
+    pub spans: Vec<Span>,
+}
+
+/// A node of the object pyramid: the bounding rectangle and greatest height
+/// of everything below it.
+#[derive(Clone, Debug)]
+pub struct PyramidNode {
+    pub rect: Rect,
+    pub max_height: f64,
+    pub children: Vec<u32>,
+    pub objects: Vec<u32>,
+}
+
+/// Everything the per-sample solver looks up.
+pub struct SceneIndex {
+    pub grid: PixelGrid,
+    pub edges: Vec<OccluderEdge>,
+    bucket_size: f64,
+    bucket_origin: DVec2,
+    bucket_dims: (usize, usize),
+    buckets: Vec<Vec<u32>>,
+    pub objects: Vec<ObjectRaster>,
+    pub pyramid: Vec<PyramidNode>,
+    /// Index of the root node of the pyramid (none when there are no objects).
+    pub root: Option<u32>,
+}
+
+const BUCKET_SIZE: f64 = 16.0;
+const PYRAMID_LEAF: f64 = 32.0;
+
+impl SceneIndex {
+    pub fn build(buildings: &[Building], occluders: &[Occluder], pixel: f64) -> SceneIndex {
+        let grid = PixelGrid { pixel };
+        let edges = collect_edges(occluders);
+        let mut bounds = Rect::EMPTY;
+        for e in &edges {
+            bounds.include(e.a);
+            bounds.include(e.b);
+        }
+        if bounds.is_empty() {
+            bounds = Rect {
+                min: DVec2::ZERO,
+                max: DVec2::ZERO,
+            };
+        }
+        let bucket_origin = bounds.min;
+        let nx = ((bounds.width() / BUCKET_SIZE).floor() as usize + 1).max(1);
+        let ny = ((bounds.height() / BUCKET_SIZE).floor() as usize + 1).max(1);
+        let mut buckets = vec![Vec::new(); nx * ny];
+        for (idx, e) in edges.iter().enumerate() {
+            let r = Rect::of_points([&e.a, &e.b]);
+            let (x0, y0) = bucket_coords(bucket_origin, r.min, nx, ny);
+            let (x1, y1) = bucket_coords(bucket_origin, r.max, nx, ny);
+            for y in y0..=y1 {
+                for x in x0..=x1 {
+                    buckets[y * nx + x].push(idx as u32);
+                }
+            }
+        }
+        let objects: Vec<ObjectRaster> = buildings
+            .iter()
+            .map(|b| rasterise_object(b, grid))
+            .collect();
+        let (pyramid, root) = build_pyramid(&objects);
+        SceneIndex {
+            grid,
+            edges,
+            bucket_size: BUCKET_SIZE,
+            bucket_origin,
+            bucket_dims: (nx, ny),
+            buckets,
+            objects,
+            pyramid,
+            root,
+        }
+    }
+
+    /// Call `f` with the index of every edge whose bucket overlaps `rect`
+    /// (an edge may be reported more than once).
+    pub fn edges_near(&self, rect: &Rect, mut f: impl FnMut(u32)) {
+        let (nx, ny) = self.bucket_dims;
+        let lo = (rect.min - self.bucket_origin) / self.bucket_size;
+        let hi = (rect.max - self.bucket_origin) / self.bucket_size;
+        if hi.x < 0.0 || hi.y < 0.0 || lo.x >= nx as f64 || lo.y >= ny as f64 {
+            return;
+        }
+        let (x0, y0) = bucket_coords(self.bucket_origin, rect.min, nx, ny);
+        let (x1, y1) = bucket_coords(self.bucket_origin, rect.max, nx, ny);
+        for y in y0..=y1 {
+            for x in x0..=x1 {
+                for &e in &self.buckets[y * nx + x] {
+                    f(e);
+                }
+            }
+        }
+    }
+}
+
+fn bucket_coords(origin: DVec2, p: DVec2, nx: usize, ny: usize) -> (usize, usize) {
+    let q = (p - origin) / BUCKET_SIZE;
+    let x = (q.x.floor().max(0.0) as usize).min(nx - 1);
+    let y = (q.y.floor().max(0.0) as usize).min(ny - 1);
+    (x, y)
+}
+
+fn collect_edges(occluders: &[Occluder]) -> Vec<OccluderEdge> {
+    let mut edges = Vec::new();
+    for occ in occluders {
+        for polygon in &occ.shape {
+            for ring in std::iter::once(&polygon.exterior).chain(polygon.holes.iter()) {
+                let start = edges.len() as u32;
+                let n = ring.len() as u32;
+                for i in 0..n {
+                    let a = ring[i as usize];
+                    let b = ring[((i + 1) % n) as usize];
+                    edges.push(OccluderEdge {
+                        a,
+                        b,
+                        height: occ.height,
+                        next: start + (i + 1) % n,
+                    });
+                }
+            }
+        }
+    }
+    edges
+}
+
+/// Every pixel whose centre lies inside the footprint or within half a
+/// pixel diagonal of its boundary: a superset of the pixels the footprint
+/// overlaps (conservative occludee rasterisation).
+fn rasterise_object(building: &Building, grid: PixelGrid) -> ObjectRaster {
+    let mut rect = Rect::EMPTY;
+    for p in &building.footprint {
+        for v in &p.exterior {
+            rect.include(*v);
+        }
+    }
+    let reach = grid.pixel * std::f64::consts::FRAC_1_SQRT_2 * (1.0 + 1e-9);
+    let (i_lo, j_lo) = grid.pixel_of(rect.min - DVec2::splat(reach));
+    let (i_hi, j_hi) = grid.pixel_of(rect.max + DVec2::splat(reach));
+    let mut spans = Vec::new();
+    for j in j_lo..=j_hi {
+        let mut run: Option<i32> = None;
+        for i in i_lo..=i_hi + 1 {
+            let inside = i <= i_hi && {
+                let c = grid.centre(i, j);
+                point_in_multipolygon(c, &building.footprint)
+                    || building
+                        .footprint
+                        .iter()
+                        .flat_map(polygon_edges)
+                        .any(|(a, b)| distance_to_segment(c, a, b) <= reach)
+            };
+            match (inside, run) {
+                (true, None) => run = Some(i),
+                (false, Some(i0)) => {
+                    spans.push(Span { j, i0, i1: i });
+                    run = None;
+                }
+                _ => {}
+            }
+        }
+    }
+    ObjectRaster {
+        height: building.height,
+        rect,
+        spans,
+    }
+}
+
+fn build_pyramid(objects: &[ObjectRaster]) -> (Vec<PyramidNode>, Option<u32>) {
+    if objects.is_empty() {
+        return (Vec::new(), None);
+    }
+    let mut bounds = Rect::EMPTY;
+    for o in objects {
+        bounds = bounds.union(&o.rect);
+    }
+    let mut nx = ((bounds.width() / PYRAMID_LEAF).floor() as usize + 1).max(1);
+    let mut ny = ((bounds.height() / PYRAMID_LEAF).floor() as usize + 1).max(1);
+    let mut level: Vec<Option<PyramidNode>> = vec![None; nx * ny];
+    for (idx, o) in objects.iter().enumerate() {
+        let c = (o.rect.min + o.rect.max) * 0.5;
+        let q = (c - bounds.min) / PYRAMID_LEAF;
+        let x = (q.x.floor().max(0.0) as usize).min(nx - 1);
+        let y = (q.y.floor().max(0.0) as usize).min(ny - 1);
+        let node = level[y * nx + x].get_or_insert_with(|| PyramidNode {
+            rect: Rect::EMPTY,
+            max_height: 0.0,
+            children: Vec::new(),
+            objects: Vec::new(),
+        });
+        node.rect = node.rect.union(&o.rect);
+        node.max_height = node.max_height.max(o.height);
+        node.objects.push(idx as u32);
+    }
+    let mut nodes: Vec<PyramidNode> = Vec::new();
+    // Indices of the current level's nodes in `nodes`.
+    let mut current: Vec<Option<u32>> = level
+        .into_iter()
+        .map(|n| {
+            n.map(|n| {
+                nodes.push(n);
+                nodes.len() as u32 - 1
+            })
+        })
+        .collect();
+    while nx > 1 || ny > 1 {
+        let (px, py) = (nx.div_ceil(2), ny.div_ceil(2));
+        let mut parents: Vec<Option<u32>> = vec![None; px * py];
+        for y in 0..py {
+            for x in 0..px {
+                let mut node = PyramidNode {
+                    rect: Rect::EMPTY,
+                    max_height: 0.0,
+                    children: Vec::new(),
+                    objects: Vec::new(),
+                };
+                for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                    let (cx, cy) = (2 * x + dx, 2 * y + dy);
+                    if cx < nx && cy < ny {
+                        if let Some(c) = current[cy * nx + cx] {
+                            let child = &nodes[c as usize];
+                            node.rect = node.rect.union(&child.rect);
+                            node.max_height = node.max_height.max(child.max_height);
+                            node.children.push(c);
+                        }
+                    }
+                }
+                if !node.children.is_empty() {
+                    nodes.push(node);
+                    parents[y * px + x] = Some(nodes.len() as u32 - 1);
+                }
+            }
+        }
+        current = parents;
+        nx = px;
+        ny = py;
+    }
+    let root = current[0];
+    (nodes, root)
+}

@@ -1,0 +1,130 @@
+//! Helpers shared by the integration tests: hand-made scenes.
+#![allow(dead_code)]
+
+use citypvs::cells::Cells;
+use citypvs::geometry::Occluder;
+use citypvs::input::{City, Frame, InputReport};
+use citypvs::model::{Building, Polygon};
+use citypvs::prepare::Scene;
+use glam::DVec2;
+
+/// A counter-clockwise axis-aligned rectangle.
+pub fn rect(x0: f64, y0: f64, x1: f64, y1: f64) -> Vec<DVec2> {
+    vec![
+        DVec2::new(x0, y0),
+        DVec2::new(x1, y0),
+        DVec2::new(x1, y1),
+        DVec2::new(x0, y1),
+    ]
+}
+
+/// A building with a rectangular footprint.
+pub fn block(id: &str, x0: f64, y0: f64, x1: f64, y1: f64, height: f64) -> Building {
+    Building {
+        id: id.into(),
+        footprint: vec![Polygon {
+            exterior: rect(x0, y0, x1, y1),
+            holes: vec![],
+        }],
+        height,
+        occludes: true,
+    }
+}
+
+/// A square ring building (courtyard of half-size `inner` inside half-size `outer`) centred at `c`.
+pub fn ring_building(id: &str, c: DVec2, outer: f64, inner: f64, height: f64) -> Building {
+    let mut hole = rect(c.x - inner, c.y - inner, c.x + inner, c.y + inner);
+    hole.reverse();
+    Building {
+        id: id.into(),
+        footprint: vec![Polygon {
+            exterior: rect(c.x - outer, c.y - outer, c.x + outer, c.y + outer),
+            holes: vec![hole],
+        }],
+        height,
+        occludes: true,
+    }
+}
+
+/// Exact erosion of axis-aligned rectangles and square rings (no reflex
+/// corners on the exterior; the ring's hole grows by eps).
+pub fn shrink_axis_aligned(b: &Building, eps: f64) -> Vec<Polygon> {
+    b.footprint
+        .iter()
+        .filter_map(|p| {
+            let (min, max) = bounds(&p.exterior);
+            if max.x - min.x <= 2.0 * eps || max.y - min.y <= 2.0 * eps {
+                return None;
+            }
+            let holes = p
+                .holes
+                .iter()
+                .map(|h| {
+                    let (hmin, hmax) = bounds(h);
+                    let mut r = rect(hmin.x - eps, hmin.y - eps, hmax.x + eps, hmax.y + eps);
+                    r.reverse();
+                    r
+                })
+                .collect();
+            Some(Polygon {
+                exterior: rect(min.x + eps, min.y + eps, max.x - eps, max.y - eps),
+                holes,
+            })
+        })
+        .collect()
+}
+
+fn bounds(ring: &[DVec2]) -> (DVec2, DVec2) {
+    let mut min = DVec2::splat(f64::INFINITY);
+    let mut max = DVec2::splat(f64::NEG_INFINITY);
+    for p in ring {
+        min = min.min(*p);
+        max = max.max(*p);
+    }
+    (min, max)
+}
+
+/// A scene of separate (non-touching) axis-aligned buildings and the given
+/// cells, with occluders shrunk by hand, bypassing merge and triangulation.
+pub fn hand_scene(buildings: Vec<Building>, cells: Vec<[DVec2; 3]>, eps: f64) -> Scene {
+    let occluders = buildings
+        .iter()
+        .enumerate()
+        .map(|(i, b)| Occluder {
+            block: i,
+            level: 0,
+            height: b.height,
+            shape: shrink_axis_aligned(b, eps),
+        })
+        .filter(|o| !o.shape.is_empty())
+        .collect();
+    let city = City {
+        buildings,
+        frame: Frame::Metric {
+            origin: DVec2::ZERO,
+            crs: None,
+        },
+        source_hash: [0; 32],
+        report: InputReport::default(),
+    };
+    Scene {
+        city,
+        blocks: vec![],
+        occluders,
+        cells: Cells {
+            triangles: cells,
+            region: Polygon::default(),
+        },
+        eps,
+        timings: vec![],
+    }
+}
+
+/// A small counter-clockwise triangle around `c`.
+pub fn cell_at(c: DVec2, size: f64) -> [DVec2; 3] {
+    [
+        c + DVec2::new(-size, -size),
+        c + DVec2::new(size, -size),
+        c + DVec2::new(0.0, size),
+    ]
+}
