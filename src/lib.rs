@@ -13,6 +13,7 @@
 //! | merge and shrink | [`geometry`] | blocks of touching buildings as height fields, conservative erosion |
 //! | view cells | [`cells`] | constrained Delaunay triangulation of free space |
 //! | orchestration | [`prepare`] | runs the three stages above and times them |
+//! | bake | [`bake`] | runs visibility over a prepared scene and packages the PVS |
 //! | visibility | [`visibility`] | samples, cull maps, hierarchical horizon, per-cell PVS |
 //! | output | [`pvs`] | the `.pvs` file: format, compression, reading |
 //! | judging | [`verify`] | independent dense point-sampling check of conservativeness |
@@ -21,6 +22,7 @@
 //! | command line | [`cli`] | the `citypvs` subcommands |
 
 pub mod atomic;
+pub mod bake;
 pub mod cells;
 pub mod cli;
 pub mod error;

@@ -2,6 +2,8 @@
 //! Each subcommand module owns its arguments and its printing; the work
 //! itself is done by the library modules.
 
+pub mod bake;
+pub mod bench;
 pub mod common;
 pub mod generate;
 pub mod prepare;
@@ -22,6 +24,10 @@ pub enum Command {
     Generate(generate::GenerateArgs),
     /// Read a city, merge and shrink footprints, cut free space into view cells, and report.
     Prepare(prepare::PrepareArgs),
+    /// Compute every view cell's potentially visible set and write a .pvs file.
+    Bake(bake::BakeArgs),
+    /// Measure preparation and bake speed on generated cities of several sizes.
+    Bench(bench::BenchArgs),
 }
 
 /// Parse the arguments, run the subcommand, print any error, return the exit status.
@@ -30,6 +36,8 @@ pub fn main() -> i32 {
     let result = match cli.command {
         Command::Generate(args) => generate::run(&args),
         Command::Prepare(args) => prepare::run(&args),
+        Command::Bake(args) => bake::run(&args),
+        Command::Bench(args) => bench::run(&args),
     };
     match result {
         Ok(code) => code,

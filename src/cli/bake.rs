@@ -1,0 +1,227 @@
+//! `citypvs bake`: read (or generate) a city, prepare it, compute every
+//! cell's PVS, write the `.pvs` file atomically and print a summary.
+
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use clap::Args;
+
+use super::common::{InputArgs, SceneArgs};
+use crate::Result;
+use crate::input::{City, read_city, read_city_bytes};
+use crate::prepare::{StageTime, prepare};
+use crate::visibility::{DEFAULT_EYE_HEIGHT, VisibilityParams, default_pixel};
+
+/// Buildings in the embedded default city.
+pub const DEFAULT_CITY_BUILDINGS: usize = 400;
+/// Seed of the embedded default city.
+pub const DEFAULT_CITY_SEED: u64 = 1;
+
+#[derive(Args, Debug)]
+pub struct BakeArgs {
+    /// The city file (GeoJSON, OSM PBF or CityJSON). Without it, an embedded
+    /// generated city of 400 buildings (seed 1) is baked.
+    pub city: Option<PathBuf>,
+    /// Output file [default: the city's name with .pvs, or default-city.pvs].
+    #[arg(short, long, value_name = "FILE")]
+    pub output: Option<PathBuf>,
+    #[command(flatten)]
+    pub input: InputArgs,
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    /// Eye height in metres: view cells are prisms from the ground to this height.
+    #[arg(long, default_value_t = DEFAULT_EYE_HEIGHT, value_name = "METRES")]
+    pub eye_height: f64,
+    /// Cull-map pixel size in metres [default: eps * sqrt(2), the largest with pixel * sqrt(2) / 2 <= eps].
+    #[arg(long, value_name = "METRES")]
+    pub pixel: Option<f64>,
+    /// Worker threads [default: all cores]. The output is the same for any number.
+    #[arg(long, value_name = "N")]
+    pub threads: Option<usize>,
+    /// No progress bar.
+    #[arg(long, short)]
+    pub quiet: bool,
+    /// Print the summary as one JSON object.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// What `bake --json` prints.
+#[derive(serde::Serialize)]
+struct Summary<'a> {
+    city: String,
+    output: String,
+    buildings: usize,
+    repaired: usize,
+    skipped: usize,
+    #[serde(flatten)]
+    stats: &'a crate::bake::BakeStats,
+    file_bytes: u64,
+    bytes_per_cell: f64,
+    compression: &'a crate::pvs::WriteStats,
+    peak_memory_bytes: Option<u64>,
+    threads: usize,
+    timings: &'a [StageTime],
+}
+
+fn load_city(args: &BakeArgs) -> Result<(City, String)> {
+    match &args.city {
+        Some(path) => Ok((
+            read_city(path, &args.input.options())?,
+            path.display().to_string(),
+        )),
+        None => {
+            let name = format!(
+                "<default city: {DEFAULT_CITY_BUILDINGS} generated buildings, seed {DEFAULT_CITY_SEED}>"
+            );
+            let text = crate::generate::generate_geojson(&crate::generate::GenerateParams {
+                buildings: DEFAULT_CITY_BUILDINGS,
+                seed: DEFAULT_CITY_SEED,
+            });
+            Ok((
+                read_city_bytes(text.as_bytes(), &name, &args.input.options())?,
+                name,
+            ))
+        }
+    }
+}
+
+fn output_path(args: &BakeArgs) -> PathBuf {
+    match (&args.output, &args.city) {
+        (Some(o), _) => o.clone(),
+        (None, Some(city)) => {
+            let stem = city
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_else(|| "city".into());
+            Path::new(&format!("{stem}.pvs")).to_path_buf()
+        }
+        (None, None) => PathBuf::from("default-city.pvs"),
+    }
+}
+
+pub fn run(args: &BakeArgs) -> Result<i32> {
+    let threads = args.threads.unwrap_or(0);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| crate::Error::new(format!("cannot start {threads} worker threads: {e}")))?;
+    pool.install(|| run_in_pool(args, pool.current_num_threads()))
+}
+
+fn run_in_pool(args: &BakeArgs, threads: usize) -> Result<i32> {
+    let t = Instant::now();
+    let (city, city_name) = load_city(args)?;
+    let read_seconds = t.elapsed().as_secs_f64();
+    let prepare_params = args.scene.params(&city.frame)?;
+    let params = VisibilityParams {
+        eye_height: args.eye_height,
+        pixel: args.pixel.unwrap_or_else(|| default_pixel(args.scene.eps)),
+        ..VisibilityParams::for_eps(args.scene.eps)
+    };
+    crate::visibility::check_pixel(args.scene.eps, params.pixel)?;
+    let mut scene = prepare(city, &prepare_params)?;
+    scene.timings.insert(
+        0,
+        StageTime {
+            stage: "read",
+            seconds: read_seconds,
+        },
+    );
+
+    let bar = progress_bar(args.quiet, scene.cells.triangles.len() as u64);
+    let tick = |n: u64| {
+        if let Some(b) = &bar {
+            b.inc(n)
+        }
+    };
+    let (data, stats, visibility_time) = crate::bake::bake(
+        &scene,
+        &params,
+        args.scene.max_cell_edge,
+        args.scene.margin,
+        &tick,
+    )?;
+    if let Some(b) = &bar {
+        b.finish_and_clear();
+    }
+    let mut timings = scene.timings.clone();
+    timings.push(visibility_time);
+
+    let output = output_path(args);
+    let t = Instant::now();
+    let write_stats = crate::pvs::write_pvs(&output, &data)?;
+    timings.push(StageTime {
+        stage: "write",
+        seconds: t.elapsed().as_secs_f64(),
+    });
+
+    let summary = Summary {
+        city: city_name,
+        output: output.display().to_string(),
+        buildings: scene.city.buildings.len(),
+        repaired: scene.city.report.repaired.len(),
+        skipped: scene.city.report.skipped.len(),
+        stats: &stats,
+        file_bytes: write_stats.file_bytes,
+        bytes_per_cell: if stats.cells > 0 {
+            write_stats.file_bytes as f64 / stats.cells as f64
+        } else {
+            0.0
+        },
+        compression: &write_stats,
+        peak_memory_bytes: crate::bake::peak_memory_bytes(),
+        threads,
+        timings: &timings,
+    };
+    if args.json {
+        println!(
+            "{}",
+            serde_json::to_string(&summary).expect("summary serialises")
+        );
+    } else {
+        print_summary(&summary);
+    }
+    Ok(0)
+}
+
+fn progress_bar(quiet: bool, cells: u64) -> Option<indicatif::ProgressBar> {
+    if quiet || !std::io::stderr().is_terminal() {
+        return None;
+    }
+    let bar = indicatif::ProgressBar::new(cells);
+    let style =
+        indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} cells  {per_sec}  eta {eta}")
+            .expect("valid template");
+    bar.set_style(style);
+    Some(bar)
+}
+
+fn print_summary(s: &Summary) {
+    println!("baked {} -> {}", s.city, s.output);
+    println!(
+        "buildings      {} ({} repaired, {} skipped)",
+        s.buildings, s.repaired, s.skipped
+    );
+    println!("cells          {}", s.stats.cells);
+    println!("samples        {}", s.stats.samples);
+    println!(
+        "visible/cell   mean {:.1}, max {}",
+        s.stats.mean_visible, s.stats.max_visible
+    );
+    println!(
+        "culled         {:.1} % of (cell, building) pairs",
+        100.0 * s.stats.culled_fraction
+    );
+    println!(
+        "file           {} bytes ({:.1} bytes per cell)",
+        s.file_bytes, s.bytes_per_cell
+    );
+    if let Some(m) = s.peak_memory_bytes {
+        println!("peak memory    {:.1} MiB", m as f64 / (1024.0 * 1024.0));
+    }
+    for t in s.timings {
+        println!("time {:<10} {:.2} s", t.stage, t.seconds);
+    }
+}
