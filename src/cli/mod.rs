@@ -4,6 +4,7 @@
 
 pub mod common;
 pub mod generate;
+pub mod inspect;
 pub mod prepare;
 
 use clap::{Parser, Subcommand};
@@ -22,6 +23,8 @@ pub enum Command {
     Generate(generate::GenerateArgs),
     /// Read a city, merge and shrink footprints, cut free space into view cells, and report.
     Prepare(prepare::PrepareArgs),
+    /// Print a .pvs file's header and statistics, or dump it as JSON.
+    Inspect(inspect::InspectArgs),
 }
 
 /// Parse the arguments, run the subcommand, print any error, return the exit status.
@@ -30,6 +33,7 @@ pub fn main() -> i32 {
     let result = match cli.command {
         Command::Generate(args) => generate::run(&args),
         Command::Prepare(args) => prepare::run(&args),
+        Command::Inspect(args) => inspect::run(&args),
     };
     match result {
         Ok(code) => code,
