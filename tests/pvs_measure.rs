@@ -33,11 +33,12 @@ fn city(seed: u64) -> (Vec<DVec2>, Vec<DVec2>) {
 /// What a cell sees: objects within a view radius that varies smoothly over
 /// the city (open squares see far, narrow lanes near), plus objects down the
 /// street canyons through the cell (a 30 m band in x or y, up to 900 m).
-fn visible_sets(objects: &[DVec2], cells: &[DVec2], order: &[u32]) -> Vec<Vec<u32>> {
+fn visible_sets(objects: &[DVec2], cells: &[DVec2], order: &[u32], reach: f64) -> Vec<Vec<u32>> {
     cells
         .iter()
         .map(|c| {
-            let radius = 120.0 + 200.0 * (0.5 + 0.5 * (c.x / 310.0).sin() * (c.y / 370.0).cos());
+            let radius =
+                reach * (0.6 + 1.0 * (0.5 + 0.5 * (c.x / 310.0).sin() * (c.y / 370.0).cos()));
             let mut set: Vec<u32> = objects
                 .iter()
                 .enumerate()
@@ -101,8 +102,13 @@ fn coding_sizes_on_a_city_like_pvs() {
         spatial[i] = rank as u32;
     }
 
-    for (name, order) in [("input order", &shuffled), ("z-order", &spatial)] {
-        let sets = visible_sets(&objects, &cells, order);
+    for (name, order, reach) in [
+        ("near, input order", &shuffled, 200.0),
+        ("near, z-order", &spatial, 200.0),
+        ("far, input order", &shuffled, 380.0),
+        ("far, z-order", &spatial, 380.0),
+    ] {
+        let sets = visible_sets(&objects, &cells, order, reach);
         let fraction =
             sets.iter().map(|v| v.len()).sum::<usize>() as f64 / (sets.len() * OBJECTS) as f64;
         assert!(
