@@ -256,19 +256,60 @@ pub struct SchemeSizes {
     pub tag_counts: [u64; 4],
 }
 
+/// The record and its sizes under every coding, for one set.
+fn encode_and_measure(set: &[u32], n: usize) -> (Vec<u8>, SchemeSizes) {
+    let record = encode_record(set, n);
+    let mut s = SchemeSizes {
+        chosen: record.len() as u64,
+        raw_bitset: bitset_len(n) as u64,
+        quake_rle: zero_rle(&bitset(set, n)).len() as u64,
+        gaps: encode_gaps(set).len() as u64,
+        runs: encode_runs(set).len() as u64,
+        tag_counts: [0; 4],
+    };
+    s.tag_counts[record[0] as usize] = 1;
+    (record, s)
+}
+
+impl SchemeSizes {
+    fn add(&mut self, o: &SchemeSizes) {
+        self.chosen += o.chosen;
+        self.raw_bitset += o.raw_bitset;
+        self.quake_rle += o.quake_rle;
+        self.gaps += o.gaps;
+        self.runs += o.runs;
+        for (a, b) in self.tag_counts.iter_mut().zip(o.tag_counts) {
+            *a += b;
+        }
+    }
+}
+
+/// Encode every set (in parallel; the result does not depend on scheduling)
+/// and total the sizes of every coding.
+pub fn encode_all(sets: &[Vec<u32>], n: usize) -> (Vec<Vec<u8>>, SchemeSizes) {
+    use rayon::prelude::*;
+    let parts: Vec<(Vec<u8>, SchemeSizes)> = sets
+        .par_iter()
+        .map(|set| encode_and_measure(set, n))
+        .collect();
+    let mut total = SchemeSizes::default();
+    let records = parts
+        .into_iter()
+        .map(|(record, s)| {
+            total.add(&s);
+            record
+        })
+        .collect();
+    (records, total)
+}
+
 /// Measure every coding over `sets` (ascending indices below `n`).
 pub fn measure<'a>(sets: impl IntoIterator<Item = &'a [u32]>, n: usize) -> SchemeSizes {
-    let mut s = SchemeSizes::default();
+    let mut total = SchemeSizes::default();
     for set in sets {
-        let record = encode_record(set, n);
-        s.chosen += record.len() as u64;
-        s.tag_counts[record[0] as usize] += 1;
-        s.raw_bitset += bitset_len(n) as u64;
-        s.quake_rle += zero_rle(&bitset(set, n)).len() as u64;
-        s.gaps += encode_gaps(set).len() as u64;
-        s.runs += encode_runs(set).len() as u64;
+        total.add(&encode_and_measure(set, n).1);
     }
-    s
+    total
 }
 
 #[cfg(test)]

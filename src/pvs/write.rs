@@ -5,7 +5,7 @@ use std::path::Path;
 
 use sha2::{Digest, Sha256};
 
-use super::codec::{encode_record, measure};
+use super::codec::encode_all;
 use super::{BakeInfo, FORMAT_VERSION, HEADER_BYTES, MAGIC, PvsData, WriteStats};
 use crate::input::Frame;
 use crate::{Error, Result};
@@ -132,11 +132,7 @@ pub fn encode_pvs(data: &PvsData) -> Result<(Vec<u8>, WriteStats)> {
         }
     }
     let index_offset = out.len();
-    let records: Vec<Vec<u8>> = data
-        .visible
-        .iter()
-        .map(|set| encode_record(set, n))
-        .collect();
+    let (records, sizes) = encode_all(&data.visible, n);
     let mut at = 0u64;
     put_u64(&mut out, at);
     for r in &records {
@@ -165,7 +161,6 @@ pub fn encode_pvs(data: &PvsData) -> Result<(Vec<u8>, WriteStats)> {
     let digest = Sha256::digest(&out);
     out.extend_from_slice(&digest);
 
-    let sizes = measure(data.visible.iter().map(|v| v.as_slice()), n);
     debug_assert_eq!(sizes.chosen, records_bytes);
     let stats = WriteStats {
         file_bytes: out.len() as u64,
