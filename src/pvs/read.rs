@@ -69,7 +69,7 @@ impl<'a> Cursor<'a> {
         Ok(())
     }
     fn skip_padding(&mut self) -> Result<()> {
-        while self.pos % 8 != 0 {
+        while !self.pos.is_multiple_of(8) {
             if self.take(1, "padding")?[0] != 0 {
                 return Err(Error::new(format!(
                     "padding byte {} is not zero",
