@@ -383,3 +383,36 @@ fn structurally_corrupt_files_with_valid_checksums_never_panic() {
     }
     assert!(errors > 100, "only {errors} corruptions detected");
 }
+
+/// Records are independent: a bad record (checksum repaired) fails only its own cell.
+#[test]
+fn a_bad_record_fails_only_its_own_cell() {
+    use sha2::{Digest, Sha256};
+    let data = strip(
+        10,
+        50,
+        Frame::LonLat {
+            lon0: 0.0,
+            lat0: 0.0,
+        },
+    );
+    let bytes = encode_pvs(&data).unwrap().0;
+    let u64_at = |at: usize| u64::from_le_bytes(bytes[at..at + 8].try_into().unwrap()) as usize;
+    let (index, records) = (u64_at(144), u64_at(152));
+    let cell = 7;
+    let start = records + u64_at(index + 8 * cell);
+    let mut bad = bytes[..bytes.len() - 32].to_vec();
+    bad[start] = 0x7f; // unknown tag
+    let digest = Sha256::digest(&bad);
+    bad.extend_from_slice(&digest);
+    let reader = PvsReader::from_bytes(bad).unwrap();
+    let err = reader.visible(cell).unwrap_err();
+    assert!(
+        err.message().contains("cell 7") && err.message().contains("tag"),
+        "{err}"
+    );
+    for c in (0..reader.cell_count()).filter(|&c| c != cell) {
+        assert_eq!(reader.visible(c).unwrap(), data.visible[c]);
+    }
+    assert!(reader.visible(reader.cell_count()).is_err());
+}

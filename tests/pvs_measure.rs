@@ -124,3 +124,79 @@ fn coding_sizes_on_a_city_like_pvs() {
         assert!(s.chosen < s.quake_rle);
     }
 }
+
+/// Timing on a larger file: `cargo test --test pvs_measure -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn write_and_open_timing_on_a_large_file() {
+    use citypvs::input::Frame;
+    use citypvs::pvs::{BakeInfo, PvsData, PvsReader, write_pvs};
+    use std::time::Instant;
+    let (cells_n, objects_n) = (50_000usize, 10_000usize);
+    let mut rng = ChaCha8Rng::seed_from_u64(1);
+    let visible: Vec<Vec<u32>> = (0..cells_n)
+        .map(|c| {
+            // A z-ordered-like coherent window of about 5% plus 1% scattered.
+            let start = (c * objects_n / cells_n) as u32;
+            let mut s: Vec<u32> = (start..start + 500)
+                .filter(|&i| (i as usize) < objects_n && rng.random_bool(0.7))
+                .collect();
+            s.extend((0..100).map(|_| rng.random_range(0..objects_n as u32)));
+            s.sort_unstable();
+            s.dedup();
+            s
+        })
+        .collect();
+    let cells = (0..cells_n)
+        .map(|c| {
+            let p = DVec2::new((c % 500) as f64 * 10.0, (c / 500) as f64 * 10.0);
+            [p, p + DVec2::new(10.0, 0.0), p + DVec2::new(0.0, 10.0)]
+        })
+        .collect();
+    let data = PvsData {
+        info: BakeInfo {
+            eps: 0.25,
+            eye_height: 1.7,
+            pixel: 0.125,
+            max_cell_edge: 20.0,
+            margin: 30.0,
+            frame: Frame::LonLat {
+                lon0: 26.9,
+                lat0: 60.4,
+            },
+            source_hash: [0; 32],
+            tool_version: "test".into(),
+        },
+        object_ids: (0..objects_n).map(|i| format!("way/{i}")).collect(),
+        cells,
+        visible,
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("big.pvs");
+    let t = Instant::now();
+    let stats = write_pvs(&path, &data).unwrap();
+    let write_s = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let reader = PvsReader::open(&path).unwrap();
+    let open_s = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let mut total = 0;
+    for c in 0..reader.cell_count() {
+        total += reader.visible(c).unwrap().len();
+    }
+    let decode_s = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let mut found = 0;
+    for c in 0..reader.cell_count() {
+        let tri = reader.cell_triangle(c);
+        found += reader.cell_at((tri[0] + tri[1] + tri[2]) / 3.0).is_some() as usize;
+    }
+    let lookup_s = t.elapsed().as_secs_f64();
+    assert_eq!(found, cells_n);
+    println!(
+        "{cells_n} cells, {objects_n} objects, {total} visible entries: file {} bytes, records {} \
+         (raw {}, quake {}); write {write_s:.2} s, open {open_s:.2} s, decode all {decode_s:.2} s, \
+         {cells_n} cell_at {lookup_s:.3} s",
+        stats.file_bytes, stats.record_bytes, stats.raw_bitset_bytes, stats.rle_bitset_bytes
+    );
+}
