@@ -6,6 +6,7 @@ pub mod bake;
 pub mod bench;
 pub mod common;
 pub mod generate;
+pub mod inspect;
 pub mod prepare;
 
 use clap::{Parser, Subcommand};
@@ -28,6 +29,8 @@ pub enum Command {
     Bake(bake::BakeArgs),
     /// Measure preparation and bake speed on generated cities of several sizes.
     Bench(bench::BenchArgs),
+    /// Print a .pvs file's header and statistics, or dump it as JSON.
+    Inspect(inspect::InspectArgs),
 }
 
 /// Parse the arguments, run the subcommand, print any error, return the exit status.
@@ -38,6 +41,7 @@ pub fn main() -> i32 {
         Command::Prepare(args) => prepare::run(&args),
         Command::Bake(args) => bake::run(&args),
         Command::Bench(args) => bench::run(&args),
+        Command::Inspect(args) => inspect::run(&args),
     };
     match result {
         Ok(code) => code,

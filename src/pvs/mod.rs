@@ -2,14 +2,21 @@
 //! cell's visible set, atomic writing, and a reader that decodes one cell's
 //! record without touching the others.
 //!
-//! OWNER: pvs helper. The types and functions below are the agreed interface.
+//! Submodules: [`codec`] (record codings and their measurement), [`write`]
+//! (serialising), [`read`] (validating and decoding), [`grid`] (point lookup).
 
-use std::path::Path;
+pub mod codec;
+mod grid;
+mod read;
+mod write;
 
 use glam::DVec2;
 
-use crate::Result;
 use crate::input::Frame;
+
+pub use codec::SchemeSizes;
+pub use read::PvsReader;
+pub use write::{encode_pvs, write_pvs};
 
 /// The bake parameters and provenance stored in the header.
 #[derive(Clone, Debug, PartialEq)]
@@ -51,47 +58,9 @@ pub struct WriteStats {
     pub rle_bitset_bytes: u64,
 }
 
-/// Write the file atomically (temporary file in the same folder, then rename).
-pub fn write_pvs(_path: &Path, _data: &PvsData) -> Result<WriteStats> {
-    todo!("pvs helper")
-}
-
-/// Reads a `.pvs` file; each cell's record is decoded on demand.
-pub struct PvsReader {
-    _private: (),
-}
-
-impl PvsReader {
-    /// Open and validate the header and tables.
-    pub fn open(_path: &Path) -> Result<PvsReader> {
-        todo!("pvs helper")
-    }
-    pub fn info(&self) -> &BakeInfo {
-        todo!()
-    }
-    pub fn cell_count(&self) -> usize {
-        todo!()
-    }
-    pub fn object_ids(&self) -> &[String] {
-        todo!()
-    }
-    pub fn cell_triangle(&self, _cell: usize) -> [DVec2; 3] {
-        todo!()
-    }
-    /// The cell containing the point (local metres), if any.
-    pub fn cell_at(&self, _p: DVec2) -> Option<usize> {
-        todo!()
-    }
-    /// Ascending object indices visible from the cell.
-    pub fn visible(&self, _cell: usize) -> Result<Vec<u32>> {
-        todo!()
-    }
-    /// Input ids of the objects visible from the cell.
-    pub fn visible_ids(&self, cell: usize) -> Result<Vec<&str>> {
-        Ok(self
-            .visible(cell)?
-            .into_iter()
-            .map(|i| self.object_ids()[i as usize].as_str())
-            .collect())
-    }
-}
+/// The first eight bytes of every `.pvs` file.
+pub const MAGIC: [u8; 8] = *b"CITYPVS\0";
+/// The layout version this code writes and reads.
+pub const FORMAT_VERSION: u32 = 1;
+/// Length of the fixed-size header in bytes.
+pub const HEADER_BYTES: usize = 168;

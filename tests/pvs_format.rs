@@ -1,0 +1,418 @@
+//! The `.pvs` file: round trip, atomic writing, point lookup, and clear errors
+//! for truncated or corrupted files.
+
+use citypvs::input::Frame;
+use citypvs::pvs::{BakeInfo, PvsData, PvsReader, encode_pvs, write_pvs};
+use glam::DVec2;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+fn info(frame: Frame) -> BakeInfo {
+    BakeInfo {
+        eps: 0.25,
+        eye_height: 1.7,
+        pixel: 0.125,
+        max_cell_edge: 20.0,
+        margin: 30.0,
+        frame,
+        source_hash: std::array::from_fn(|i| (i * 7 + 3) as u8),
+        tool_version: "citypvs 0.1.0-test".into(),
+    }
+}
+
+/// A strip of `n` squares, each split into two CCW triangles, with varied visible sets.
+fn strip(squares: usize, objects: usize, frame: Frame) -> PvsData {
+    let mut cells = Vec::new();
+    for k in 0..squares {
+        let x = k as f64 * 10.0;
+        let (a, b, c, d) = (
+            DVec2::new(x, 0.0),
+            DVec2::new(x + 10.0, 0.0),
+            DVec2::new(x + 10.0, 10.0),
+            DVec2::new(x, 10.0),
+        );
+        cells.push([a, b, c]);
+        cells.push([a, c, d]);
+    }
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let visible = (0..cells.len())
+        .map(|c| match c % 4 {
+            0 => Vec::new(),
+            1 => (0..objects as u32).collect(),
+            2 => (0..objects as u32)
+                .filter(|_| rng.random_bool(0.1))
+                .collect(),
+            _ => (c as u32 % 5..objects as u32).step_by(3).collect(),
+        })
+        .collect();
+    PvsData {
+        info: info(frame),
+        object_ids: (0..objects)
+            .map(|i| format!("way/{}", 1000 + i * 13))
+            .collect(),
+        cells,
+        visible,
+    }
+}
+
+fn read_back(reader: &PvsReader) -> PvsData {
+    PvsData {
+        info: reader.info().clone(),
+        object_ids: reader.object_ids().to_vec(),
+        cells: (0..reader.cell_count())
+            .map(|c| reader.cell_triangle(c))
+            .collect(),
+        visible: (0..reader.cell_count())
+            .map(|c| reader.visible(c).unwrap())
+            .collect(),
+    }
+}
+
+#[test]
+fn round_trip_equals_the_data_for_every_frame_kind() {
+    let dir = tempfile::tempdir().unwrap();
+    let frames = [
+        Frame::LonLat {
+            lon0: 26.94,
+            lat0: 60.47,
+        },
+        Frame::Metric {
+            origin: DVec2::new(491_234.5, 6_702_345.25),
+            crs: Some("urn:ogc:def:crs:EPSG::3067".into()),
+        },
+        Frame::Metric {
+            origin: DVec2::new(-5.0, 7.5),
+            crs: None,
+        },
+    ];
+    for (k, frame) in frames.into_iter().enumerate() {
+        let data = strip(25, 37 + k * 50, frame);
+        let path = dir.path().join(format!("t{k}.pvs"));
+        let stats = write_pvs(&path, &data).unwrap();
+        assert_eq!(stats.file_bytes, std::fs::metadata(&path).unwrap().len());
+        let reader = PvsReader::open(&path).unwrap();
+        assert_eq!(read_back(&reader), data);
+        assert_eq!(reader.file_bytes(), stats.file_bytes);
+        let ids = reader.visible_ids(1).unwrap();
+        assert_eq!(ids.len(), data.object_ids.len());
+        assert_eq!(ids[0], data.object_ids[0]);
+    }
+}
+
+#[test]
+fn empty_data_round_trips() {
+    let data = PvsData {
+        info: info(Frame::LonLat {
+            lon0: 0.0,
+            lat0: 0.0,
+        }),
+        object_ids: Vec::new(),
+        cells: Vec::new(),
+        visible: Vec::new(),
+    };
+    let (bytes, _) = encode_pvs(&data).unwrap();
+    let reader = PvsReader::from_bytes(bytes).unwrap();
+    assert_eq!(read_back(&reader), data);
+    assert_eq!(reader.cell_at(DVec2::ZERO), None);
+}
+
+#[test]
+fn output_is_byte_for_byte_deterministic() {
+    let frame = Frame::LonLat {
+        lon0: 26.94,
+        lat0: 60.47,
+    };
+    let a = encode_pvs(&strip(30, 200, frame.clone())).unwrap().0;
+    let b = encode_pvs(&strip(30, 200, frame)).unwrap().0;
+    assert_eq!(a, b);
+}
+
+#[test]
+fn stats_compare_codings_honestly() {
+    let data = strip(
+        50,
+        300,
+        Frame::LonLat {
+            lon0: 1.0,
+            lat0: 2.0,
+        },
+    );
+    let (bytes, stats) = encode_pvs(&data).unwrap();
+    assert_eq!(stats.file_bytes, bytes.len() as u64);
+    assert_eq!(stats.raw_bitset_bytes, 100 * 300u64.div_ceil(8));
+    // Each record is the shortest coding plus a tag byte, so never worse than raw + 1.
+    assert!(stats.record_bytes <= stats.raw_bitset_bytes + 100);
+    assert!(stats.record_bytes < stats.raw_bitset_bytes);
+    assert!(stats.record_bytes < stats.rle_bitset_bytes);
+}
+
+#[test]
+fn atomic_write_into_a_missing_folder_fails_and_leaves_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("missing").join("out.pvs");
+    let data = strip(
+        2,
+        5,
+        Frame::LonLat {
+            lon0: 0.0,
+            lat0: 0.0,
+        },
+    );
+    let err = write_pvs(&path, &data).unwrap_err();
+    assert!(err.message().contains("out.pvs"), "{err}");
+    assert!(!path.exists());
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+}
+
+#[test]
+fn invalid_data_is_refused_and_leaves_no_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("bad.pvs");
+    let mut data = strip(
+        2,
+        5,
+        Frame::LonLat {
+            lon0: 0.0,
+            lat0: 0.0,
+        },
+    );
+    data.visible[0] = vec![3, 2];
+    assert!(write_pvs(&path, &data).is_err());
+    data.visible[0] = vec![5];
+    assert!(
+        write_pvs(&path, &data)
+            .unwrap_err()
+            .message()
+            .contains("only 5 objects")
+    );
+    data.visible.pop();
+    assert!(write_pvs(&path, &data).is_err());
+    assert!(!path.exists());
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+}
+
+#[test]
+fn cell_at_finds_the_containing_triangle() {
+    let data = strip(
+        10,
+        4,
+        Frame::LonLat {
+            lon0: 0.0,
+            lat0: 0.0,
+        },
+    );
+    let reader = PvsReader::from_bytes(encode_pvs(&data).unwrap().0).unwrap();
+    // Square k is [10k, 10k+10] x [0, 10]; triangle 2k below the diagonal, 2k+1 above.
+    for k in 0..10 {
+        let x = k as f64 * 10.0;
+        assert_eq!(reader.cell_at(DVec2::new(x + 7.0, 2.0)), Some(2 * k));
+        assert_eq!(reader.cell_at(DVec2::new(x + 2.0, 7.0)), Some(2 * k + 1));
+        // On the diagonal: either neighbour.
+        let on_edge = reader.cell_at(DVec2::new(x + 5.0, 5.0)).unwrap();
+        assert!(on_edge == 2 * k || on_edge == 2 * k + 1);
+    }
+    // Corners and outer edges belong to some cell; outside belongs to none.
+    assert!(reader.cell_at(DVec2::new(0.0, 0.0)).is_some());
+    assert!(reader.cell_at(DVec2::new(100.0, 10.0)).is_some());
+    assert_eq!(reader.cell_at(DVec2::new(-0.001, 5.0)), None);
+    assert_eq!(reader.cell_at(DVec2::new(50.0, 10.001)), None);
+    assert_eq!(reader.cell_at(DVec2::new(f64::NAN, 5.0)), None);
+}
+
+#[test]
+fn cell_at_agrees_with_brute_force_on_random_points() {
+    // A fan of irregular triangles around a centre, leaving gaps between them.
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    let mut cells = Vec::new();
+    for k in 0..200 {
+        let a0 = k as f64 * std::f64::consts::TAU / 200.0;
+        let a1 = a0 + 0.025 + rng.random_range(0.0..0.006);
+        let r = rng.random_range(50.0..500.0);
+        cells.push([
+            DVec2::new(rng.random_range(-3.0..3.0), rng.random_range(-3.0..3.0)),
+            DVec2::new(r * a0.cos(), r * a0.sin()),
+            DVec2::new(r * a1.cos(), r * a1.sin()),
+        ]);
+    }
+    let n = cells.len();
+    let data = PvsData {
+        info: info(Frame::LonLat {
+            lon0: 0.0,
+            lat0: 0.0,
+        }),
+        object_ids: vec!["a".into()],
+        cells: cells.clone(),
+        visible: vec![vec![0]; n],
+    };
+    let reader = PvsReader::from_bytes(encode_pvs(&data).unwrap().0).unwrap();
+    let contains = |t: &[DVec2; 3], p: DVec2| {
+        let s = (t[1] - t[0]).perp_dot(t[2] - t[0]).signum();
+        (0..3).all(|k| (t[(k + 1) % 3] - t[k]).perp_dot(p - t[k]) * s >= 0.0)
+    };
+    let mut inside = 0;
+    for _ in 0..20_000 {
+        let p = DVec2::new(
+            rng.random_range(-520.0..520.0),
+            rng.random_range(-520.0..520.0),
+        );
+        let expected: Vec<usize> = (0..n).filter(|&c| contains(&cells[c], p)).collect();
+        match reader.cell_at(p) {
+            Some(c) => {
+                assert!(
+                    expected.contains(&c),
+                    "{p} -> {c}, expected one of {expected:?}"
+                );
+                inside += 1;
+            }
+            None => assert!(expected.is_empty(), "{p} missed {expected:?}"),
+        }
+    }
+    assert!(inside > 1000, "too few points inside: {inside}");
+}
+
+fn sample_file() -> Vec<u8> {
+    encode_pvs(&strip(
+        40,
+        120,
+        Frame::Metric {
+            origin: DVec2::new(100.0, 200.0),
+            crs: Some("EPSG:3067".into()),
+        },
+    ))
+    .unwrap()
+    .0
+}
+
+#[test]
+fn truncation_anywhere_is_a_clear_error() {
+    let bytes = sample_file();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("cut.pvs");
+    for len in (0..bytes.len()).step_by(97) {
+        std::fs::write(&path, &bytes[..len]).unwrap();
+        let err = PvsReader::open(&path)
+            .err()
+            .expect("truncated file must fail");
+        assert!(
+            err.message().starts_with(&path.display().to_string()),
+            "{err}"
+        );
+        if len >= 24 {
+            assert!(err.message().contains("truncated"), "at {len}: {err}");
+        }
+    }
+}
+
+#[test]
+fn random_byte_flips_are_detected() {
+    let bytes = sample_file();
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    for _ in 0..500 {
+        let mut bad = bytes.clone();
+        let at = rng.random_range(0..bad.len());
+        bad[at] ^= rng.random_range(1..=255u8);
+        let err = PvsReader::from_bytes(bad)
+            .err()
+            .expect("corrupt file must fail");
+        let m = err.message();
+        assert!(
+            m.contains("checksum")
+                || m.contains("magic")
+                || m.contains("version")
+                || m.contains("truncated"),
+            "flip at {at}: {m}"
+        );
+    }
+}
+
+#[test]
+fn bad_magic_and_version_are_named() {
+    let mut bytes = sample_file();
+    bytes[0] = b'X';
+    assert!(
+        PvsReader::from_bytes(bytes)
+            .err()
+            .unwrap()
+            .message()
+            .contains("not a citypvs")
+    );
+    let mut bytes = sample_file();
+    bytes[8] = 2;
+    assert!(
+        PvsReader::from_bytes(bytes)
+            .err()
+            .unwrap()
+            .message()
+            .contains("version 2")
+    );
+}
+
+/// Corrupt the body and then repair the length and checksum, so the structural
+/// checks behind the checksum are exercised: they must error, never panic.
+#[test]
+fn structurally_corrupt_files_with_valid_checksums_never_panic() {
+    use sha2::{Digest, Sha256};
+    let bytes = sample_file();
+    let mut rng = ChaCha8Rng::seed_from_u64(5);
+    let mut errors = 0;
+    for _ in 0..3000 {
+        let mut bad = bytes[..bytes.len() - 32].to_vec();
+        for _ in 0..rng.random_range(1..4) {
+            let at = rng.random_range(12..bad.len());
+            bad[at] = rng.random();
+        }
+        if rng.random_bool(0.2) {
+            let cut = rng.random_range(24..bad.len());
+            bad.truncate(cut);
+        }
+        let len = (bad.len() + 32) as u64;
+        bad[16..24].copy_from_slice(&len.to_le_bytes());
+        let digest = Sha256::digest(&bad);
+        bad.extend_from_slice(&digest);
+        match PvsReader::from_bytes(bad) {
+            Err(_) => errors += 1,
+            Ok(r) => {
+                for c in 0..r.cell_count() {
+                    if let Ok(set) = r.visible(c) {
+                        assert!(set.iter().all(|&i| (i as usize) < r.object_ids().len()));
+                    }
+                    let _ = r.cell_at(r.cell_triangle(c)[0]);
+                }
+            }
+        }
+    }
+    assert!(errors > 100, "only {errors} corruptions detected");
+}
+
+/// Records are independent: a bad record (checksum repaired) fails only its own cell.
+#[test]
+fn a_bad_record_fails_only_its_own_cell() {
+    use sha2::{Digest, Sha256};
+    let data = strip(
+        10,
+        50,
+        Frame::LonLat {
+            lon0: 0.0,
+            lat0: 0.0,
+        },
+    );
+    let bytes = encode_pvs(&data).unwrap().0;
+    let u64_at = |at: usize| u64::from_le_bytes(bytes[at..at + 8].try_into().unwrap()) as usize;
+    let (index, records) = (u64_at(144), u64_at(152));
+    let cell = 7;
+    let start = records + u64_at(index + 8 * cell);
+    let mut bad = bytes[..bytes.len() - 32].to_vec();
+    bad[start] = 0x7f; // unknown tag
+    let digest = Sha256::digest(&bad);
+    bad.extend_from_slice(&digest);
+    let reader = PvsReader::from_bytes(bad).unwrap();
+    let err = reader.visible(cell).unwrap_err();
+    assert!(
+        err.message().contains("cell 7") && err.message().contains("tag"),
+        "{err}"
+    );
+    for c in (0..reader.cell_count()).filter(|&c| c != cell) {
+        assert_eq!(reader.visible(c).unwrap(), data.visible[c]);
+    }
+    assert!(reader.visible(reader.cell_count()).is_err());
+}
