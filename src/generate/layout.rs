@@ -55,44 +55,53 @@ pub struct Block {
 #[derive(Clone, Debug)]
 pub struct Layout {
     pub blocks: Vec<Block>,
-    /// The river-like strip's extent in v (it runs the whole length in u).
-    pub river: (f64, f64),
+    /// The river-like strip: the whole plan's length in u.
+    pub river: GridRect,
+    /// The open square: the two empty blocks (the streets around stay streets).
+    pub square: GridRect,
 }
 
-/// Block boundaries along one axis covering [-half, half]: pairs (start, end)
-/// of the blocks, separated by streets. If `river_at` is given, the first
-/// street line past that coordinate is widened into the river; its extent is
-/// returned.
-fn axis(rng: &mut ChaCha8Rng, half: f64, river_at: Option<f64>) -> (Vec<(f64, f64)>, (f64, f64)) {
+/// Block boundaries along one axis covering [-half, half]: pairs (start,
+/// end) of the blocks, separated by streets of varied width.
+fn axis(rng: &mut ChaCha8Rng, half: f64) -> Vec<(f64, f64)> {
     let mut blocks = Vec::new();
-    let mut river = (f64::NAN, f64::NAN);
-    let mut river_done = river_at.is_none();
     let mut pos = -half;
     while pos < half {
-        let start = pos;
-        let end = start + rng.random_range(BLOCK_SIDE.0..=BLOCK_SIDE.1);
-        blocks.push((start, end));
-        let mut street = if rng.random_bool(AVENUE_CHANCE) {
+        let end = pos + rng.random_range(BLOCK_SIDE.0..=BLOCK_SIDE.1);
+        blocks.push((pos, end));
+        let street = if rng.random_bool(AVENUE_CHANCE) {
             rng.random_range(AVENUE_WIDTH.0..=AVENUE_WIDTH.1)
         } else {
             rng.random_range(STREET_WIDTH.0..=STREET_WIDTH.1)
         };
-        if !river_done && river_at.is_some_and(|at| end > at) {
-            street = rng.random_range(RIVER_WIDTH.0..=RIVER_WIDTH.1);
-            river = (end, end + street);
-            river_done = true;
-        }
         pos = end + street;
     }
-    (blocks, river)
+    blocks
+}
+
+/// Widen the street line whose middle is nearest `at` into the river,
+/// shifting the blocks beyond it; returns the river's extent.
+fn widen_into_river(rng: &mut ChaCha8Rng, blocks: &mut [(f64, f64)], at: f64) -> (f64, f64) {
+    let middle = |i: usize| 0.5 * (blocks[i].1 + blocks[i + 1].0);
+    let line = (0..blocks.len() - 1)
+        .min_by(|&a, &b| (middle(a) - at).abs().total_cmp(&(middle(b) - at).abs()))
+        .expect("the plan has at least two blocks per axis");
+    let width = rng.random_range(RIVER_WIDTH.0..=RIVER_WIDTH.1);
+    let start = blocks[line].1;
+    let shift = start + width - blocks[line + 1].0;
+    for b in &mut blocks[line + 1..] {
+        *b = (b.0 + shift, b.1 + shift);
+    }
+    (start, start + width)
 }
 
 /// A street plan covering a square of side `2 * half` around the origin,
 /// for a city of about `radius` metres; blocks sorted by distance from the
 /// centre (ties broken by row, then column).
 pub fn plan(rng: &mut ChaCha8Rng, half: f64, radius: f64) -> Layout {
-    let (columns, _) = axis(rng, half, None);
-    let (rows, river) = axis(rng, half, Some(0.3 * radius));
+    let columns = axis(rng, half);
+    let mut rows = axis(rng, half);
+    let river = widen_into_river(rng, &mut rows, 0.2 * radius);
     // The square: the block nearest a point on the other side of the centre,
     // together with its eastern neighbour.
     let target = (-0.35 * radius, -0.3 * radius);
@@ -111,17 +120,27 @@ pub fn plan(rng: &mut ChaCha8Rng, half: f64, radius: f64) -> Layout {
         let (u, v) = b.rect.centre();
         (u - x).hypot(v - y)
     };
-    if let Some(nearest) = blocks
+    let nearest = blocks
         .iter()
-        .enumerate()
-        .min_by(|a, b| distance(a.1, target).total_cmp(&distance(b.1, target)))
-        .map(|(i, _)| i)
-    {
-        let (row, column) = (blocks[nearest].row, blocks[nearest].column);
-        for b in blocks.iter_mut() {
-            if b.row == row && (b.column == column || b.column == column + 1) {
-                b.square = true;
-            }
+        .filter(|b| b.column + 1 < columns.len())
+        .min_by(|a, b| distance(a, target).total_cmp(&distance(b, target)))
+        .map(|b| (b.row, b.column))
+        .expect("the plan has at least two blocks per axis");
+    let mut square = GridRect {
+        u0: f64::INFINITY,
+        v0: f64::INFINITY,
+        u1: f64::NEG_INFINITY,
+        v1: f64::NEG_INFINITY,
+    };
+    for b in blocks.iter_mut() {
+        if b.row == nearest.0 && (b.column == nearest.1 || b.column == nearest.1 + 1) {
+            b.square = true;
+            square = GridRect {
+                u0: square.u0.min(b.rect.u0),
+                v0: square.v0.min(b.rect.v0),
+                u1: square.u1.max(b.rect.u1),
+                v1: square.v1.max(b.rect.v1),
+            };
         }
     }
     blocks.sort_by(|a, b| {
@@ -130,5 +149,15 @@ pub fn plan(rng: &mut ChaCha8Rng, half: f64, radius: f64) -> Layout {
             .then(a.row.cmp(&b.row))
             .then(a.column.cmp(&b.column))
     });
-    Layout { blocks, river }
+    let river = GridRect {
+        u0: columns[0].0,
+        v0: river.0,
+        u1: columns[columns.len() - 1].1,
+        v1: river.1,
+    };
+    Layout {
+        blocks,
+        river,
+        square,
+    }
 }

@@ -104,16 +104,29 @@ fn ring_ccw(r: &layout::GridRect) -> Vec<DVec2> {
     ]
 }
 
+/// A generated city in local metres.
+#[derive(Clone, Debug)]
+pub struct GeneratedCity {
+    /// Exactly the requested number, ids "b0", "b1", ... in order.
+    pub buildings: Vec<GeneratedBuilding>,
+    /// The open square (a rectangle kept free of buildings).
+    pub square: Polygon,
+    /// The river-like strip across the whole street plan (kept free of buildings).
+    pub river: Polygon,
+}
+
 /// The city's buildings in local metres: exactly `params.buildings` of them,
 /// filled block by block from the centre outwards.
 pub fn generate_buildings(params: &GenerateParams) -> Vec<GeneratedBuilding> {
+    generate_city(params).buildings
+}
+
+/// The whole city in local metres: buildings, square and river.
+pub fn generate_city(params: &GenerateParams) -> GeneratedCity {
     let n = params.buildings;
-    if n == 0 {
-        return Vec::new();
-    }
     // A disc of the target area; the street plan covers a generous square
     // around it, and grows if the blocks fall short.
-    let radius = (n as f64 / BUILDINGS_PER_KM2 / std::f64::consts::PI).sqrt() * 1000.0;
+    let radius = (n.max(1) as f64 / BUILDINGS_PER_KM2 / std::f64::consts::PI).sqrt() * 1000.0;
     let mut half = 1.5 * radius + 300.0;
     loop {
         let plan = layout::plan(&mut stream(params.seed, 0), half, radius);
@@ -121,6 +134,9 @@ pub fn generate_buildings(params: &GenerateParams) -> Vec<GeneratedBuilding> {
         'blocks: for block in plan.blocks.iter().filter(|b| !b.square) {
             let id = 1 + ((block.row as u64) << 32 | block.column as u64);
             for b in buildings::fill_block(&mut stream(params.seed, id), block.rect) {
+                if out.len() == n {
+                    break 'blocks;
+                }
                 out.push(GeneratedBuilding {
                     id: format!("b{}", out.len()),
                     kind: b.kind,
@@ -138,13 +154,18 @@ pub fn generate_buildings(params: &GenerateParams) -> Vec<GeneratedBuilding> {
                             .collect(),
                     },
                 });
-                if out.len() == n {
-                    break 'blocks;
-                }
             }
         }
         if out.len() == n {
-            return out;
+            let open = |r: &layout::GridRect| Polygon {
+                exterior: ring_ccw(r),
+                holes: Vec::new(),
+            };
+            return GeneratedCity {
+                buildings: out,
+                square: open(&plan.square),
+                river: open(&plan.river),
+            };
         }
         half *= 2.0;
     }
