@@ -16,8 +16,10 @@ use super::layout::GridRect;
 const ROW_WIDTH: (f64, f64) = (8.0, 25.0);
 /// Depth of a row (or of a courtyard ring) from the street, metres.
 const ROW_DEPTH: (f64, f64) = (10.0, 20.0);
-/// Chance that a row building (not a corner) is left out, making a passage.
-const PASSAGE_CHANCE: f64 = 0.08;
+/// Chance that a narrow row building (not a corner) is left out, making a
+/// passage into the yard, and the widest building that may be left out.
+const PASSAGE_CHANCE: f64 = 0.15;
+const PASSAGE_MAX_WIDTH: f64 = 12.0;
 /// Typical width of a house lot along the street, and the house inside its lot, metres.
 const LOT_WIDTH: f64 = 22.0;
 const HOUSE_WIDTH: (f64, f64) = (8.0, 14.0);
@@ -112,7 +114,8 @@ fn rows(rng: &mut ChaCha8Rng, b: GridRect) -> Vec<GridBuilding> {
         let last = cuts.len() - 2;
         for (i, pair) in cuts.windows(2).enumerate() {
             let corner = i == 0 || i == last;
-            if !corner && rng.random_bool(PASSAGE_CHANCE) {
+            let narrow = pair[1] - pair[0] <= PASSAGE_MAX_WIDTH;
+            if !corner && narrow && rng.random_bool(PASSAGE_CHANCE) {
                 continue;
             }
             out.push(GridBuilding {
