@@ -14,9 +14,10 @@ use super::layout::GridRect;
 
 /// Widths of row buildings along the street, metres.
 const ROW_WIDTH: (f64, f64) = (8.0, 25.0);
-/// Depth of a row (or of a courtyard ring) from the street, metres.
+/// Depth of a row from the street, and of a courtyard ring, metres.
 const ROW_DEPTH: (f64, f64) = (10.0, 20.0);
-/// Chance that a narrow row building (not a corner) is left out, making a
+const COURTYARD_DEPTH: (f64, f64) = (10.0, 12.0);
+/// Chance that a narrow row building (not at either end of its row) is left out, making a
 /// passage into the yard, and the widest building that may be left out.
 const PASSAGE_CHANCE: f64 = 0.15;
 const PASSAGE_MAX_WIDTH: f64 = 12.0;
@@ -113,9 +114,9 @@ fn rows(rng: &mut ChaCha8Rng, b: GridRect) -> Vec<GridBuilding> {
     let mut push_row = |rng: &mut ChaCha8Rng, cuts: &[f64], make: &dyn Fn(f64, f64) -> GridRect| {
         let last = cuts.len() - 2;
         for (i, pair) in cuts.windows(2).enumerate() {
-            let corner = i == 0 || i == last;
+            let row_end = i == 0 || i == last;
             let narrow = pair[1] - pair[0] <= PASSAGE_MAX_WIDTH;
-            if !corner && narrow && rng.random_bool(PASSAGE_CHANCE) {
+            if !row_end && narrow && rng.random_bool(PASSAGE_CHANCE) {
                 continue;
             }
             out.push(GridBuilding {
@@ -143,7 +144,7 @@ fn rows(rng: &mut ChaCha8Rng, b: GridRect) -> Vec<GridBuilding> {
 
 /// One ring building with a courtyard, or two side by side sharing a wall.
 fn courtyards(rng: &mut ChaCha8Rng, b: GridRect) -> Vec<GridBuilding> {
-    let d = rng.random_range(ROW_DEPTH.0..=12.0);
+    let d = rng.random_range(COURTYARD_DEPTH.0..=COURTYARD_DEPTH.1);
     let split = b.u0 + b.width() * rng.random_range(0.4..=0.6);
     let parts = if split - b.u0 >= 2.0 * d + 10.0 && b.u1 - split >= 2.0 * d + 10.0 {
         vec![(b.u0, split), (split, b.u1)]
