@@ -5,11 +5,14 @@ use std::path::PathBuf;
 use clap::Args;
 
 use crate::Result;
-use crate::generate::{GenerateParams, generate_geojson};
+use crate::generate::{GenerateParams, generate_city, geojson};
+
+/// The largest city the command makes (about 5,000 km^2).
+pub const MAX_BUILDINGS: usize = 5_000_000;
 
 #[derive(Args, Debug)]
 pub struct GenerateArgs {
-    /// Number of buildings.
+    /// Number of buildings (the city grows at about 1,000 buildings per km^2).
     #[arg(long, default_value_t = 1000)]
     pub buildings: usize,
     /// Random seed; the same seed gives the same city.
@@ -21,10 +24,31 @@ pub struct GenerateArgs {
 }
 
 pub fn run(args: &GenerateArgs) -> Result<i32> {
-    let text = generate_geojson(&GenerateParams {
+    if args.buildings == 0 || args.buildings > MAX_BUILDINGS {
+        return Err(crate::Error::new(format!(
+            "--buildings must be between 1 and {MAX_BUILDINGS}, got {}",
+            args.buildings
+        )));
+    }
+    let city = generate_city(&GenerateParams {
         buildings: args.buildings,
         seed: args.seed,
     });
+    let text = geojson::write(&city.buildings, &crate::generate::frame());
     crate::atomic::write_atomically(&args.output, text.as_bytes())?;
+    let extent = crate::model::Rect::of_points(
+        city.buildings
+            .iter()
+            .flat_map(|b| b.footprint.exterior.iter()),
+    );
+    println!(
+        "wrote {} buildings to {} ({:.0} m x {:.0} m around lon {}, lat {})",
+        city.buildings.len(),
+        args.output.display(),
+        extent.width(),
+        extent.height(),
+        crate::generate::ORIGIN_LON,
+        crate::generate::ORIGIN_LAT
+    );
     Ok(0)
 }
