@@ -24,6 +24,8 @@ use crate::model::Rect;
 /// Number of azimuth bins.
 pub const BINS: usize = 2048;
 const BIN_WIDTH: f64 = TAU / BINS as f64;
+/// Bins per group in the coarse level that lets hidden chains be skipped.
+const GROUP: usize = 32;
 
 /// Per-bin lower bounds on the blocked slope, `-inf` where nothing is known.
 #[derive(Clone, Debug)]
@@ -32,6 +34,11 @@ pub struct Horizon {
     chain_points: Vec<DVec2>,
     chain_angles: Vec<f64>,
     bin_distance: Vec<f64>,
+    /// Unit direction of each bin's lower border, `border_dirs[b]` at angle
+    /// `b * BIN_WIDTH - pi`.
+    border_dirs: Vec<DVec2>,
+    /// Per group of GROUP bins, the smallest slope of its bins.
+    group_min: Vec<f64>,
 }
 
 impl Default for Horizon {
@@ -41,6 +48,13 @@ impl Default for Horizon {
             chain_points: Vec::new(),
             chain_angles: Vec::new(),
             bin_distance: Vec::new(),
+            border_dirs: (0..BINS)
+                .map(|b| {
+                    let theta = b as f64 * BIN_WIDTH - PI;
+                    DVec2::new(theta.cos(), theta.sin())
+                })
+                .collect(),
+            group_min: vec![f64::NEG_INFINITY; BINS / GROUP],
         }
     }
 }
@@ -61,6 +75,7 @@ fn unwrapped_angle(v: DVec2, p: DVec2, reference: f64) -> f64 {
 impl Horizon {
     pub fn clear(&mut self) {
         self.slopes.fill(f64::NEG_INFINITY);
+        self.group_min.fill(f64::NEG_INFINITY);
     }
 
     /// Add a chain of connected occluder edges at `height`, given by its
@@ -97,6 +112,19 @@ impl Horizon {
         }
         let base = ((lo + PI) / BIN_WIDTH).floor() as i64;
         let top = ((hi + PI) / BIN_WIDTH).floor() as i64;
+        // The steepest slope this chain could give; if every bin it spans is
+        // already at least that steep, it adds nothing.
+        let nearest = self
+            .chain_points
+            .windows(2)
+            .map(|w| crate::model::distance_to_segment(v, w[0], w[1]))
+            .fold(f64::INFINITY, f64::min);
+        let steepest = (height - eye) / nearest;
+        let groups = (base.div_euclid(GROUP as i64)..=top.div_euclid(GROUP as i64))
+            .map(|g| self.group_min[g.rem_euclid((BINS / GROUP) as i64) as usize]);
+        if groups.fold(f64::INFINITY, f64::min) >= steepest {
+            return;
+        }
         self.bin_distance.clear();
         self.bin_distance.resize((top - base + 1) as usize, 0.0);
         for i in 0..n - 1 {
@@ -108,21 +136,28 @@ impl Horizon {
                 std::mem::swap(&mut da, &mut db);
             }
             let normal = (b - a).perp();
-            let along = |theta: f64| -> f64 {
-                let dir = DVec2::new(theta.cos(), theta.sin());
-                let denom = dir.dot(normal);
-                let t = (a - v).dot(normal) / denom;
-                if denom.abs() < 1e-12 || !t.is_finite() || t <= 0.0 { da.max(db) } else { t.min(da.max(db)) }
+            let offset = (a - v).dot(normal);
+            let far = da.max(db);
+            let dirs = &self.border_dirs;
+            // Distance along the border ray of bin `border` to the edge's line,
+            // capped by the edge's farther end (the border ray meets the edge
+            // itself when the border lies strictly between its end angles).
+            let along = |border: i64| -> f64 {
+                let denom = dirs[border.rem_euclid(BINS as i64) as usize].dot(normal);
+                let t = offset / denom;
+                if denom.abs() < 1e-12 || !t.is_finite() || t <= 0.0 { far } else { t.min(far) }
             };
             let first = ((ta + PI) / BIN_WIDTH).floor() as i64;
             let last = ((tb + PI) / BIN_WIDTH).floor() as i64;
+            // Distance at the lower border of each bin first..=last+1; the
+            // borders outside [ta, tb] are replaced by the edge's ends.
+            let mut lower = da;
             for bin in first..=last {
-                let bin_lo = bin as f64 * BIN_WIDTH - PI;
-                let bin_hi = bin_lo + BIN_WIDTH;
-                let d_lo = if bin_lo <= ta { da } else { along(bin_lo) };
-                let d_hi = if bin_hi >= tb { db } else { along(bin_hi) };
+                let upper_border = bin + 1;
+                let upper = if upper_border as f64 * BIN_WIDTH - PI >= tb { db } else { along(upper_border) };
                 let slot = &mut self.bin_distance[(bin - base) as usize];
-                *slot = slot.max(d_lo).max(d_hi);
+                *slot = slot.max(lower).max(upper);
+                lower = upper;
             }
         }
         let first_full = ((lo + PI) / BIN_WIDTH).ceil() as i64;
@@ -132,6 +167,13 @@ impl Horizon {
             if d > 0.0 {
                 let s = &mut self.slopes[bin.rem_euclid(BINS as i64) as usize];
                 *s = s.max((height - eye) / d);
+            }
+        }
+        if first_full <= last_full {
+            for g in first_full.div_euclid(GROUP as i64)..=last_full.div_euclid(GROUP as i64) {
+                let g = g.rem_euclid((BINS / GROUP) as i64) as usize;
+                let bins = &self.slopes[g * GROUP..(g + 1) * GROUP];
+                self.group_min[g] = bins.iter().copied().fold(f64::INFINITY, f64::min);
             }
         }
     }
