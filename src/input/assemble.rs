@@ -61,6 +61,15 @@ pub fn feature_label(id: Option<&str>, index: usize) -> String {
     }
 }
 
+/// A warning's feature name for messages: ids quoted, `#<index>` as is.
+fn quoted(feature: &str) -> String {
+    if feature.starts_with('#') {
+        feature.to_string()
+    } else {
+        format!("\"{feature}\"")
+    }
+}
+
 /// An error about one feature of file `name`.
 pub fn feature_error(name: &str, id: Option<&str>, index: usize, what: &str) -> Error {
     Error::new(format!("{name}: {}: {what}", feature_label(id, index)))
@@ -169,7 +178,11 @@ fn project(b: &RawBuilding, frame: &Frame) -> RawFootprint {
 pub fn assemble(parsed: Parsed, name: &str, bytes: &[u8], options: &InputOptions) -> Result<City> {
     if parsed.buildings.is_empty() {
         let why = match parsed.skipped.first() {
-            Some(w) => format!(" (first skipped: {}: {})", w.feature, w.message),
+            Some(w) => format!(
+                " (first skipped: feature {}: {})",
+                quoted(&w.feature),
+                w.message
+            ),
             None => String::new(),
         };
         return Err(Error::new(format!(
@@ -224,7 +237,8 @@ pub fn assemble(parsed: Parsed, name: &str, bytes: &[u8], options: &InputOptions
             let more = report.skipped.len() + report.repaired.len() - 1;
             return Err(Error::new(format!(
                 "{name}: feature {}: {} (--strict turns this warning into an error; {more} more)",
-                w.feature, w.message
+                quoted(&w.feature),
+                w.message
             )));
         }
     }

@@ -134,7 +134,7 @@ fn height(props: &Map<String, Value>, options: &InputOptions) -> FeatureResult<f
     for key in ["building:levels", "levels"] {
         if let Some(levels) = levels_property(props, key)? {
             return check_height(levels * METRES_PER_LEVEL)
-                .map_err(|e| format!("{key} = {levels} gives {e}"));
+                .map_err(|e| format!("{key} = {levels} x {METRES_PER_LEVEL} m: {e}"));
         }
     }
     check_height(options.default_height).map_err(|e| format!("--default-height: {e}"))

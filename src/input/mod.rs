@@ -103,6 +103,11 @@ pub fn read_city(path: &Path, options: &InputOptions) -> Result<City> {
 
 /// Read a city from bytes; `name` is used in messages (usually the path).
 pub fn read_city_bytes(bytes: &[u8], name: &str, options: &InputOptions) -> Result<City> {
+    if let Err(why) = height::check_height(options.default_height) {
+        return Err(crate::Error::new(format!(
+            "{name}: --default-height: {why}"
+        )));
+    }
     if bytes.iter().all(|b| b.is_ascii_whitespace()) {
         return Err(crate::Error::new(format!("{name}: the file is empty")));
     }
