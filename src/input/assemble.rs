@@ -51,6 +51,9 @@ pub struct Parsed {
     pub skipped: Vec<Warning>,
     /// Features looked at.
     pub features_read: usize,
+    /// Whether the format prescribes ring winding (reversed rings are then
+    /// reported as repairs).
+    pub winding_matters: bool,
 }
 
 /// How a feature is named in messages: `feature "b7" (index 7)`.
@@ -198,7 +201,7 @@ pub fn assemble(parsed: Parsed, name: &str, bytes: &[u8], options: &InputOptions
     let repaired: Vec<_> = parsed
         .buildings
         .par_iter()
-        .map(|b| repair_footprint(&project(b, &frame)))
+        .map(|b| repair_footprint(&project(b, &frame), parsed.winding_matters))
         .collect();
 
     let mut report = InputReport {

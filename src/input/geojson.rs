@@ -178,6 +178,7 @@ pub fn parse(root: &Value, name: &str, options: &InputOptions) -> Result<Parsed>
         buildings: Vec::new(),
         skipped: Vec::new(),
         features_read: features.len(),
+        winding_matters: true,
     };
     for (index, feature) in features.iter().enumerate() {
         let props = feature

@@ -170,7 +170,7 @@ pub fn read_region(path: &Path, frame: &Frame) -> Result<crate::model::Polygon> 
         .iter()
         .map(|ring| ring.iter().map(|p| frame.to_local(p[0], p[1])).collect())
         .collect();
-    let mut repaired = repair::repair_footprint(&vec![local]);
+    let mut repaired = repair::repair_footprint(&vec![local], false);
     if repaired.footprint.len() != 1 {
         return Err(crate::Error::new(format!(
             "{name}: region: the polygon is not usable ({} pieces after repair{})",

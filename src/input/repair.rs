@@ -173,8 +173,9 @@ fn union_nonzero(polygons: Vec<geo::Polygon<f64>>) -> Vec<Polygon> {
 }
 
 /// Repair one building's footprint. Polygons that stay invalid after repair,
-/// or have no area, are left out (and noted).
-pub fn repair_footprint(raw: &RawFootprint) -> Repaired {
+/// or have no area, are left out (and noted). Reversed rings are noted only
+/// when `winding_matters` (GeoJSON prescribes a winding; OSM does not).
+pub fn repair_footprint(raw: &RawFootprint, winding_matters: bool) -> Repaired {
     let mut notes = Vec::new();
     let mut fixes = VertexFixes::default();
     let mut reversed = 0;
@@ -231,7 +232,7 @@ pub fn repair_footprint(raw: &RawFootprint) -> Repaired {
         }
     }
     fixes.notes(&mut notes);
-    if reversed > 0 {
+    if reversed > 0 && winding_matters {
         notes.push(format!("{reversed} rings with the wrong winding reversed"));
     }
     if dropped_holes > 0 {
@@ -271,7 +272,7 @@ mod tests {
     #[test]
     fn valid_square_is_untouched() {
         let square = ring(&[(0.0, 0.0), (10.0, 0.0), (10.0, 10.0), (0.0, 10.0)]);
-        let r = repair_footprint(&vec![vec![square.clone()]]);
+        let r = repair_footprint(&vec![vec![square.clone()]], true);
         assert!(r.notes.is_empty(), "{:?}", r.notes);
         assert_eq!(r.footprint[0].exterior, square);
     }
@@ -288,7 +289,7 @@ mod tests {
             (10.0, 5.0),
             (10.0, 0.0),
         ]);
-        let r = repair_footprint(&vec![vec![cw]]);
+        let r = repair_footprint(&vec![vec![cw]], true);
         let p = &r.footprint[0];
         assert_eq!(p.exterior.len(), 4, "{:?}", p.exterior);
         assert!(ring_signed_area2(&p.exterior) > 0.0);
@@ -302,7 +303,7 @@ mod tests {
     #[test]
     fn bowtie_keeps_both_lobes() {
         let bowtie = ring(&[(0.0, 0.0), (10.0, 10.0), (10.0, 0.0), (0.0, 10.0)]);
-        let r = repair_footprint(&vec![vec![bowtie]]);
+        let r = repair_footprint(&vec![vec![bowtie]], true);
         assert_eq!(r.footprint.len(), 2, "{:?}", r.footprint);
         assert!((multipolygon_area(&r.footprint) - 50.0).abs() < 1e-6);
         assert!(r.notes.iter().any(|n| n.contains("BooleanOps")));
@@ -312,7 +313,7 @@ mod tests {
     fn overlapping_polygons_are_unioned() {
         let a = ring(&[(0.0, 0.0), (10.0, 0.0), (10.0, 10.0), (0.0, 10.0)]);
         let b = ring(&[(5.0, 5.0), (15.0, 5.0), (15.0, 15.0), (5.0, 15.0)]);
-        let r = repair_footprint(&vec![vec![a], vec![b]]);
+        let r = repair_footprint(&vec![vec![a], vec![b]], true);
         assert_eq!(r.footprint.len(), 1);
         assert!((multipolygon_area(&r.footprint) - 175.0).abs() < 1e-6);
     }
@@ -320,7 +321,7 @@ mod tests {
     #[test]
     fn zero_area_polygon_is_dropped() {
         let flat = ring(&[(0.0, 0.0), (10.0, 0.0), (20.0, 0.0)]);
-        let r = repair_footprint(&vec![vec![flat]]);
+        let r = repair_footprint(&vec![vec![flat]], true);
         assert!(r.footprint.is_empty());
         assert!(!r.notes.is_empty());
     }
