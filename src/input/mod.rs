@@ -125,13 +125,15 @@ pub fn read_city_bytes(bytes: &[u8], name: &str, options: &InputOptions) -> Resu
             )));
         }
         _ => {
-            let root = detect::decode_json(bytes, name)?;
-            let format = guess
-                .or_else(|| detect::json_format(&root))
-                .unwrap_or(Format::Geojson);
+            let format = match guess {
+                Some(format) => format,
+                None => detect::json_format(bytes, name)?.unwrap_or(Format::Geojson),
+            };
             match format {
-                Format::Cityjson => cityjson::parse(&root, name, options)?,
-                _ => geojson::parse(&root, name, options)?,
+                Format::Cityjson => {
+                    cityjson::parse(&detect::decode_json(bytes, name)?, name, options)?
+                }
+                _ => geojson::parse(&geojson::decode(bytes, name)?, name, options)?,
             }
         }
     };
@@ -144,8 +146,7 @@ pub fn read_region(path: &Path, frame: &Frame) -> Result<crate::model::Polygon> 
     let name = path.display().to_string();
     let bytes =
         std::fs::read(path).map_err(|e| crate::Error::new(format!("{name}: cannot read: {e}")))?;
-    let root = detect::decode_json(&bytes, &name)?;
-    let rings = geojson::parse_region(&root, &name)?;
+    let rings = geojson::parse_region(&geojson::decode(&bytes, &name)?, &name)?;
     if rings
         .iter()
         .flatten()
