@@ -122,7 +122,10 @@ fn legacy_crs_name(doc: &Document) -> Option<String> {
 /// True for CRS names that mean lon/lat on WGS 84 (or close enough).
 fn is_geographic_crs(name: &str) -> bool {
     let n = name.to_ascii_uppercase();
-    n.contains("CRS84") || n.ends_with(":4326") || n.ends_with(":4258")
+    n.contains("CRS84")
+        || [":4326", ":4258", ":4979"]
+            .iter()
+            .any(|code| n.ends_with(code))
 }
 
 /// How the coordinates of a FeatureCollection are to be read.
