@@ -165,13 +165,13 @@ fn choose_frame(parsed: &Parsed) -> Frame {
 }
 
 /// Project a building's rings into local metres.
-fn project(b: &RawBuilding, frame: &Frame) -> RawFootprint {
+fn project(b: &RawBuilding, to_local: &(impl Fn(f64, f64) -> DVec2 + Sync)) -> RawFootprint {
     b.polygons
         .iter()
         .map(|rings| {
             rings
                 .iter()
-                .map(|ring| ring.iter().map(|p| frame.to_local(p[0], p[1])).collect())
+                .map(|ring| ring.iter().map(|p| to_local(p[0], p[1])).collect())
                 .collect()
         })
         .collect()
@@ -198,11 +198,14 @@ pub fn assemble(parsed: Parsed, name: &str, bytes: &[u8], options: &InputOptions
     check_coordinates(&parsed, name)?;
     let frame = choose_frame(&parsed);
 
-    let repaired: Vec<_> = parsed
-        .buildings
-        .par_iter()
-        .map(|b| repair_footprint(&project(b, &frame), parsed.winding_matters))
-        .collect();
+    let repaired: Vec<_> = {
+        let to_local = frame.local_mapper();
+        parsed
+            .buildings
+            .par_iter()
+            .map(|b| repair_footprint(&project(b, &to_local), parsed.winding_matters))
+            .collect()
+    };
 
     let mut report = InputReport {
         features_read: parsed.features_read,
