@@ -32,6 +32,23 @@ pub fn sniff(bytes: &[u8]) -> Content {
     }
 }
 
+/// The format to read `bytes` as: `forced` if given, else from the content
+/// (PBF header, JSON `type`), else from the extension of `name`.
+pub fn format(bytes: &[u8], name: &str, forced: Option<Format>) -> Result<Format> {
+    if let Some(format) = forced {
+        return Ok(format);
+    }
+    match sniff(bytes) {
+        Content::Pbf => Ok(Format::OsmPbf),
+        Content::Json => Ok(json_format(bytes, name)?.unwrap_or(Format::Geojson)),
+        Content::Unknown => from_extension(name).ok_or_else(|| {
+            Error::new(format!(
+                "{name}: not a GeoJSON, CityJSON or OSM PBF file (the content is not JSON and has no PBF header; use --format to force a format)"
+            ))
+        }),
+    }
+}
+
 /// The format a file name's extension suggests.
 pub fn from_extension(name: &str) -> Option<Format> {
     let lower = name.to_ascii_lowercase();

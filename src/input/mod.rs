@@ -111,31 +111,10 @@ pub fn read_city_bytes(bytes: &[u8], name: &str, options: &InputOptions) -> Resu
     if bytes.iter().all(|b| b.is_ascii_whitespace()) {
         return Err(crate::Error::new(format!("{name}: the file is empty")));
     }
-    let content = detect::sniff(bytes);
-    let guess = options.format.or(match content {
-        detect::Content::Pbf => Some(Format::OsmPbf),
-        detect::Content::Json => None,
-        detect::Content::Unknown => detect::from_extension(name),
-    });
-    let parsed = match guess {
-        Some(Format::OsmPbf) => osm::parse(bytes, name, options)?,
-        _ if content == detect::Content::Unknown && guess.is_none() => {
-            return Err(crate::Error::new(format!(
-                "{name}: not a GeoJSON, CityJSON or OSM PBF file (the content is not JSON and has no PBF header; use --format to force a format)"
-            )));
-        }
-        _ => {
-            let format = match guess {
-                Some(format) => format,
-                None => detect::json_format(bytes, name)?.unwrap_or(Format::Geojson),
-            };
-            match format {
-                Format::Cityjson => {
-                    cityjson::parse(&detect::decode_json(bytes, name)?, name, options)?
-                }
-                _ => geojson::parse(&geojson::decode(bytes, name)?, name, options)?,
-            }
-        }
+    let parsed = match detect::format(bytes, name, options.format)? {
+        Format::OsmPbf => osm::parse(bytes, name, options)?,
+        Format::Cityjson => cityjson::parse(&detect::decode_json(bytes, name)?, name, options)?,
+        Format::Geojson => geojson::parse(&geojson::decode(bytes, name)?, name, options)?,
     };
     assemble::assemble(parsed, name, bytes, options)
 }
