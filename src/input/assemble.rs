@@ -15,6 +15,10 @@ use crate::{Error, Result};
 
 /// A position as written in the file: lon/lat degrees or metres.
 pub type RawPoint = [f64; 2];
+/// A ring as written in the file, open (no repeated closing position).
+pub type RawRing = Vec<RawPoint>;
+/// A polygon as written in the file: the exterior ring first, then holes.
+pub type RawPolygon = Vec<RawRing>;
 
 /// How a file's coordinates are to be read.
 #[derive(Clone, Debug, PartialEq)]
@@ -35,7 +39,7 @@ pub struct RawBuilding {
     /// Whether the id was written in the file (else it is the index).
     pub id_given: bool,
     /// Polygons: exterior ring first, then holes; rings open, in file coordinates.
-    pub polygons: Vec<Vec<Vec<RawPoint>>>,
+    pub polygons: Vec<RawPolygon>,
     pub height: f64,
     pub occludes: bool,
     /// Repairs already made while parsing (e.g. rings that were not closed).
@@ -238,16 +242,17 @@ pub fn assemble(parsed: Parsed, name: &str, bytes: &[u8], options: &InputOptions
         });
     }
     report.buildings = buildings.len();
-    if options.strict {
-        if let Some(w) = report.skipped.first().or(report.repaired.first()) {
-            let more = report.skipped.len() + report.repaired.len() - 1;
-            return Err(Error::new(format!(
-                "{name}: feature {}: {} (--strict turns this warning into an error; {more} more)",
-                quoted(&w.feature),
-                w.message
-            )));
-        }
+    if options.strict
+        && let Some(w) = report.skipped.first().or(report.repaired.first())
+    {
+        let more = report.skipped.len() + report.repaired.len() - 1;
+        return Err(Error::new(format!(
+            "{name}: feature {}: {} (--strict turns this warning into an error; {more} more)",
+            quoted(&w.feature),
+            w.message
+        )));
     }
+
     if buildings.is_empty() {
         return Err(Error::new(format!(
             "{name}: no usable buildings: all {} were skipped (first: {}: {})",

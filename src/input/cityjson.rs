@@ -7,7 +7,7 @@
 
 use serde_json::{Map, Value};
 
-use super::assemble::{Coordinates, Parsed, RawBuilding, RawPoint, feature_error};
+use super::assemble::{Coordinates, Parsed, RawBuilding, RawPoint, RawPolygon, feature_error};
 use super::height::check_height;
 use super::{InputOptions, Warning};
 use crate::{Error, Result};
@@ -154,7 +154,7 @@ fn collect_surfaces(
 fn footprint_and_height(
     geometry: &Value,
     verts: &[[f64; 3]],
-) -> std::result::Result<(Vec<Vec<Vec<RawPoint>>>, f64), String> {
+) -> std::result::Result<(Vec<RawPolygon>, f64), String> {
     let surfaces = surfaces(geometry, verts)?;
     let zs = surfaces
         .iter()

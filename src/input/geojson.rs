@@ -5,7 +5,7 @@
 use serde::de::{self, Deserialize, Deserializer, SeqAccess, Visitor};
 use serde_json::{Map, Value};
 
-use super::assemble::{Coordinates, Parsed, RawBuilding, RawPoint, feature_error};
+use super::assemble::{Coordinates, Parsed, RawBuilding, RawPoint, RawPolygon, feature_error};
 use super::height::{check_height, parse_length, parse_number};
 use super::{InputOptions, METRES_PER_LEVEL, Warning, detect};
 use crate::{Error, Result};
@@ -157,7 +157,7 @@ fn ring(coords: &Coords, notes: &mut Vec<String>) -> FeatureResult<Vec<RawPoint>
     Ok(points)
 }
 
-fn polygon(coords: &Coords, notes: &mut Vec<String>) -> FeatureResult<Vec<Vec<RawPoint>>> {
+fn polygon(coords: &Coords, notes: &mut Vec<String>) -> FeatureResult<RawPolygon> {
     let Coords::List(rings) = coords else {
         return Err("polygon coordinates are not an array of rings".into());
     };
@@ -170,7 +170,7 @@ fn shape_polygons(
     kind: &str,
     coords: Option<&Coords>,
     notes: &mut Vec<String>,
-) -> FeatureResult<Option<Vec<Vec<Vec<RawPoint>>>>> {
+) -> FeatureResult<Option<Vec<RawPolygon>>> {
     match (kind, coords) {
         ("Polygon", Some(c)) => Ok(Some(vec![polygon(c, notes)?])),
         ("MultiPolygon", Some(Coords::List(polys))) => Ok(Some(
@@ -188,7 +188,7 @@ fn shape_polygons(
 fn geometry_polygons(
     geometry: &Geometry,
     notes: &mut Vec<String>,
-) -> FeatureResult<Option<Vec<Vec<Vec<RawPoint>>>>> {
+) -> FeatureResult<Option<Vec<RawPolygon>>> {
     shape_polygons(
         geometry.kind.as_deref().unwrap_or(""),
         geometry.coordinates.as_ref(),
@@ -327,7 +327,7 @@ fn geometry_parts(g: Option<&Geometry>) -> (&str, Option<&Coords>) {
 
 /// The single polygon of a region file: a Polygon geometry, a Feature, or a
 /// FeatureCollection with one polygon feature. Rings open, in file coordinates.
-pub fn parse_region(doc: &Document, name: &str) -> Result<Vec<Vec<RawPoint>>> {
+pub fn parse_region(doc: &Document, name: &str) -> Result<RawPolygon> {
     let fail = |what: &str| Error::new(format!("{name}: region: {what}"));
     let (kind, coords) = match doc.kind.as_deref() {
         Some("FeatureCollection") => {
