@@ -74,9 +74,10 @@ fn assert_model_conventions(city: &citypvs::input::City) {
 
 #[test]
 fn generated_city_reads_without_repairs() {
+    // The embedded default city of `citypvs bake`.
     let params = GenerateParams {
-        buildings: 400,
-        seed: 7,
+        buildings: citypvs::cli::bake::DEFAULT_CITY_BUILDINGS,
+        seed: citypvs::cli::bake::DEFAULT_CITY_SEED,
     };
     let text = generate_geojson(&params);
     let expected = generate_buildings(&params);
