@@ -9,7 +9,7 @@ use spade::{
     Triangulation,
 };
 
-use crate::model::{MultiPolygon, multipolygon_area};
+use crate::model::{MultiPolygon, Rect, multipolygon_area};
 use crate::{Error, Result};
 
 type Cdt = ConstrainedDelaunayTriangulation<Point2<f64>>;
@@ -22,7 +22,9 @@ pub const MAX_VERTICES: usize = 20_000_000;
 const MAX_SPLIT_ROUNDS: usize = 100;
 
 /// Counter-clockwise triangles covering `free` exactly, every edge at most
-/// `max_edge` long, in spade's (deterministic) face order.
+/// `max_edge` long, ordered along a Morton curve of their centroids (ties
+/// in spade's deterministic face order), so that neighbouring cells are
+/// mostly close in the list.
 pub fn triangulate_free_space(free: &MultiPolygon, max_edge: f64) -> Result<Vec<[DVec2; 3]>> {
     let area = multipolygon_area(free);
     // An equilateral triangle with edge max_edge has area 0.433 max_edge^2;
@@ -39,11 +41,38 @@ pub fn triangulate_free_space(free: &MultiPolygon, max_edge: f64) -> Result<Vec<
     refine(&mut cdt, max_edge, expected_vertices as usize);
     split_long_edges(&mut cdt, max_edge)?;
     let free_faces = free_faces(&cdt);
-    Ok(cdt
+    let mut triangles: Vec<[DVec2; 3]> = cdt
         .inner_faces()
         .filter(|f| free_faces[f.fix().index()])
         .map(|f| f.positions().map(|p| DVec2::new(p.x, p.y)))
-        .collect())
+        .collect();
+    sort_along_morton_curve(&mut triangles);
+    Ok(triangles)
+}
+
+/// Stable sort of triangles by the Morton code of their centroids on a
+/// 2^20 x 2^20 grid over their bounding box.
+fn sort_along_morton_curve(triangles: &mut [[DVec2; 3]]) {
+    const CELLS: f64 = (1u32 << 20) as f64;
+    let bounds = Rect::of_points(triangles.iter().flatten());
+    let size = (bounds.max - bounds.min).max(DVec2::splat(f64::MIN_POSITIVE));
+    let code = |t: &[DVec2; 3]| {
+        let c = ((t[0] + t[1] + t[2]) / 3.0 - bounds.min) / size * CELLS;
+        let x = c.x.clamp(0.0, CELLS - 1.0) as u64;
+        let y = c.y.clamp(0.0, CELLS - 1.0) as u64;
+        spread_bits(x) | (spread_bits(y) << 1)
+    };
+    triangles.sort_by_cached_key(code);
+}
+
+/// The low 32 bits of `v` moved to the even bit positions.
+fn spread_bits(v: u64) -> u64 {
+    let mut v = v & 0xffff_ffff;
+    v = (v | (v << 16)) & 0x0000_ffff_0000_ffff;
+    v = (v | (v << 8)) & 0x00ff_00ff_00ff_00ff;
+    v = (v | (v << 4)) & 0x0f0f_0f0f_0f0f_0f0f;
+    v = (v | (v << 2)) & 0x3333_3333_3333_3333;
+    (v | (v << 1)) & 0x5555_5555_5555_5555
 }
 
 fn insertion_error(e: InsertionError) -> Error {
@@ -160,4 +189,15 @@ fn free_faces(cdt: &Cdt) -> Vec<bool> {
         }
     }
     parity.into_iter().map(|p| p == 1).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn morton_bits_interleave() {
+        assert_eq!(spread_bits(0b1011), 0b1000101);
+        assert_eq!(spread_bits(u64::MAX), 0x5555_5555_5555_5555);
+    }
 }
