@@ -117,13 +117,16 @@ fn constrained(free: &MultiPolygon, max_edge: f64) -> std::result::Result<Cdt, I
 }
 
 /// Delaunay refinement of the free faces with an area bound that makes most
-/// edges shorter than `max_edge`.
+/// edges shorter than `max_edge` (the split loop does the rest). The
+/// parameters were chosen by cell count on generated cities: a minimum
+/// angle of 20 degrees and at most 0.4 max_edge^2 (an equilateral triangle
+/// of edge max_edge has 0.433 max_edge^2) gave the fewest cells.
 fn refine(cdt: &mut Cdt, max_edge: f64, expected_vertices: usize) {
     let m2 = max_edge * max_edge;
     let params = RefinementParameters::<f64>::new()
         .exclude_outer_faces(true)
         .with_angle_limit(AngleLimit::from_deg(20.0))
-        .with_max_allowed_area(0.25 * m2)
+        .with_max_allowed_area(0.4 * m2)
         .with_min_required_area(1e-3 * m2)
         .with_max_additional_vertices(4 * expected_vertices + 10 * cdt.num_vertices() + 1000);
     cdt.refine(params);
