@@ -110,3 +110,36 @@ fn shrink_drops_thin_levels() {
     assert_eq!(occluders[0].level, 0);
     assert_eq!(occluders[0].height, 10.0);
 }
+
+#[test]
+fn same_blocks_occluders_and_cells_for_any_thread_count() {
+    use citypvs::cells::{CellParams, triangulate};
+    use citypvs::generate::{GenerateParams, generate_buildings};
+    let buildings: Vec<Building> = generate_buildings(&GenerateParams {
+        buildings: 300,
+        seed: 3,
+    })
+    .into_iter()
+    .map(|b| Building {
+        id: b.id,
+        footprint: vec![b.footprint],
+        height: b.height,
+        occludes: true,
+    })
+    .collect();
+    let run = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| {
+                let blocks = merge_blocks(&buildings);
+                let occluders = shrink_blocks(&blocks, 1.0);
+                let cells = triangulate(&blocks, &CellParams::default()).unwrap();
+                format!("{blocks:?}{occluders:?}{:?}", cells.triangles)
+            })
+    };
+    let one = run(1);
+    assert_eq!(one, run(3));
+    assert_eq!(one, run(8));
+}
