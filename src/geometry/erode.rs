@@ -25,7 +25,7 @@ pub const MIN_PIECE_AREA: f64 = 1e-6;
 
 /// Erode each polygon of `area` by `eps` plus the safety margin.
 pub fn erode(area: &MultiPolygon, eps: f64) -> MultiPolygon {
-    if !(eps >= 0.0) || !eps.is_finite() {
+    if eps.is_nan() || eps < 0.0 || eps.is_infinite() {
         // Nothing sensible to return for a meaningless distance; the empty
         // set is the conservative answer.
         return Vec::new();
