@@ -53,3 +53,9 @@ fn timing_generated_cities() {
         time_city(n);
     }
 }
+
+#[test]
+#[ignore]
+fn timing_large_generated_city() {
+    time_city(100_000);
+}
