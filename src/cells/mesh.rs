@@ -16,7 +16,7 @@ type Cdt = ConstrainedDelaunayTriangulation<Point2<f64>>;
 
 /// The triangulation will not grow beyond this many vertices: a guard
 /// against a region far too large for its edge bound.
-pub const MAX_VERTICES: usize = 20_000_000;
+pub const MAX_VERTICES: usize = 5_000_000;
 
 /// Rounds of midpoint insertion before giving up.
 const MAX_SPLIT_ROUNDS: usize = 100;
@@ -128,7 +128,9 @@ fn refine(cdt: &mut Cdt, max_edge: f64, expected_vertices: usize) {
         .with_angle_limit(AngleLimit::from_deg(20.0))
         .with_max_allowed_area(0.4 * m2)
         .with_min_required_area(1e-3 * m2)
-        .with_max_additional_vertices(4 * expected_vertices + 10 * cdt.num_vertices() + 1000);
+        .with_max_additional_vertices(
+            (4 * expected_vertices + 10 * cdt.num_vertices() + 1000).min(MAX_VERTICES),
+        );
     cdt.refine(params);
 }
 
