@@ -27,8 +27,8 @@ const MAX_SPLIT_ROUNDS: usize = 100;
 /// mostly close in the list.
 pub fn triangulate_free_space(free: &MultiPolygon, max_edge: f64) -> Result<Vec<[DVec2; 3]>> {
     let area = multipolygon_area(free);
-    // An equilateral triangle with edge max_edge has area 0.433 max_edge^2;
-    // refinement leaves triangles of about a quarter of that.
+    // A generous estimate: on generated cities and Kotka each vertex carries
+    // about 0.2 max_edge^2 of free area (two cells of 0.1 max_edge^2).
     let expected_vertices = area / (0.1 * max_edge * max_edge);
     if expected_vertices > MAX_VERTICES as f64 {
         return Err(Error::new(format!(
