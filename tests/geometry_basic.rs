@@ -90,10 +90,11 @@ fn erosion_keeps_clear_of_reflex_corners_and_courtyards() {
         );
         assert!(boundary_distance(p, &b.footprint) >= 2.0 - 1e-9, "{p}");
     }
-    // Exact erosion area: 36^2 - (16 + 4)^2 + (4 - pi) * 2^2 corners.
+    // Exact erosion area: 36^2 - (16 + 4)^2 + (4 - pi) * 2^2 corners. The
+    // margin costs about 0.22 m2, the two-sided corner wedges 4 x 0.17 m2.
     let exact = 36.0f64 * 36.0 - 20.0 * 20.0 + (4.0 - std::f64::consts::PI) * 4.0;
     let got = multipolygon_area(&eroded);
-    assert!(got < exact && got > exact - 0.5, "{got} vs {exact}");
+    assert!(got < exact && got > exact - 1.0, "{got} vs {exact}");
 }
 
 #[test]

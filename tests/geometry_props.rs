@@ -14,9 +14,9 @@ use rand_chacha::ChaCha8Rng;
 use scenes::{assert_model_polygons, boundary_distance, box_points, edge_points, scene};
 
 /// How far beyond eps + margin the polygonal cut may reach: the corner
-/// polygons' vertices lie at radius / cos(pi / 16).
+/// wedges' vertices lie at radius / cos(pi / 8).
 fn cut_reach(eps: f64) -> f64 {
-    (eps + EROSION_SAFETY_MARGIN) / (std::f64::consts::PI / 16.0).cos() + 1e-6
+    (eps + EROSION_SAFETY_MARGIN) / (std::f64::consts::PI / 8.0).cos() + 1e-6
 }
 
 /// Every sample point of the eroded area is inside the original and at

@@ -36,8 +36,18 @@ fn time_city(n: usize) {
     let cells = triangulate(&blocks, &CellParams::default()).unwrap();
     let cells_time = t.elapsed().as_secs_f64();
     let levels: usize = blocks.iter().map(|b| b.levels.len()).sum();
+    let level_vertices: usize = blocks
+        .iter()
+        .flat_map(|b| b.levels.iter().flat_map(|l| l.area.iter()))
+        .map(|p| p.exterior.len() + p.holes.iter().map(Vec::len).sum::<usize>())
+        .sum();
+    let occluder_vertices: usize = occluders
+        .iter()
+        .flat_map(|o| o.shape.iter())
+        .map(|p| p.exterior.len() + p.holes.iter().map(Vec::len).sum::<usize>())
+        .sum();
     println!(
-        "{n} buildings: {} blocks, {levels} levels, {} occluders, {} cells; \
+        "{n} buildings: {} blocks, {levels} levels ({level_vertices} vertices), {} occluders ({occluder_vertices} vertices), {} cells; \
          merge {merge:.3} s, erode {erode:.3} s, triangulate {cells_time:.3} s, total {:.3} s",
         blocks.len(),
         occluders.len(),
