@@ -1,0 +1,355 @@
+//! Exact visibility of buildings from one viewpoint, against the original
+//! footprints at their true heights.
+//!
+//! The azimuths of all footprint vertices (plus a coarse fan) cut the
+//! directions around the viewpoint into wedges. Inside one open wedge no ray
+//! passes a vertex, so every ray crosses the same edges in the same order:
+//! the buildings along the ray form the same sequence of intervals. In the
+//! vertical plane of a ray a building interval is a rectangle; the best point
+//! to see of it is its near top corner when it is at least as high as the
+//! eye, its far top corner otherwise, and a blocker is cleared by a sight line
+//! iff the line passes above that same corner. So with elevations
+//! `(H - z) / distance` of those corners, an interval is seen iff its
+//! elevation is at least every earlier occluding interval's.
+//!
+//! The distance along direction `u` to an edge's line is `c / cross(u, e)`,
+//! so every elevation is a linear function of `u`. Writing `u = m + s m_perp`
+//! over the wedge (`m` its middle direction), elevations are straight lines
+//! in `s`, the running horizon is their upper envelope, and "seen somewhere in
+//! the wedge" is an exact test at the envelope's breakpoints. One ray per
+//! wedge (through its middle) finds the intervals; nothing between rays is
+//! sampled or missed.
+
+use glam::{DVec2, DVec3};
+
+use super::edges::{Crossing, EdgeGrid, RayScratch};
+use super::envelope::{Envelope, Line};
+use crate::model::{Building, Rect, multipolygon_bounds, point_in_multipolygon};
+
+/// Extra wedge boundaries, evenly spaced, so that no wedge is wider than
+/// 2 pi / FAN_DIRECTIONS (the `s` parameter stays small).
+const FAN_DIRECTIONS: usize = 16;
+/// Wedges narrower than this (radians) are left out: they lie between two
+/// azimuths equal up to rounding, and each neighbour's closed wedge already
+/// includes their boundary directions.
+const MIN_WEDGE: f64 = 1e-11;
+/// An elevation for an edge whose line passes through the viewpoint.
+const HUGE_ELEVATION: f64 = 1e30;
+
+/// One building seen from a viewpoint, and a point of it that is seen.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sighting {
+    pub building: u32,
+    pub witness: DVec3,
+}
+
+/// What one viewpoint sees.
+#[derive(Clone, Debug, PartialEq)]
+pub enum View {
+    /// The buildings seen, ascending by building index.
+    Seen { sightings: Vec<Sighting>, rays: u64 },
+    /// The viewpoint is inside this occluding building: nothing can be judged.
+    InsideBuilding(u32),
+}
+
+/// The judge's view of the city: buildings, their edges in a grid, and their
+/// vertices.
+#[derive(Debug)]
+pub struct Judge<'a> {
+    buildings: &'a [Building],
+    grid: EdgeGrid,
+    /// Every footprint vertex with its building.
+    vertices: Vec<(DVec2, u32)>,
+    bounds: Vec<Rect>,
+}
+
+/// Per-thread working memory of [`Judge::view`].
+#[derive(Debug, Default)]
+pub struct Scratch {
+    ray: RayScratch,
+    envelope: Envelope,
+    azimuths: Vec<f64>,
+    farthest: Vec<f64>,
+    beyond: Vec<(f64, f64)>,
+    seen: Vec<Option<DVec3>>,
+    /// Buildings the ray is inside of: (building, edge it entered by).
+    open: Vec<(u32, Option<u32>)>,
+}
+
+/// One wedge of directions being judged.
+struct Wedge {
+    origin: DVec2,
+    z: f64,
+    mid: DVec2,
+    perp: DVec2,
+}
+
+impl Wedge {
+    /// The elevation `dh / distance` of the line of `edge`, as a line in `s`.
+    fn elevation(&self, grid: &EdgeGrid, edge: u32, dh: f64) -> Line {
+        let e = &grid.edges[edge as usize];
+        let along = e.b - e.a;
+        let c = (e.a - self.origin).perp_dot(along);
+        if c.abs() <= 1e-300 {
+            return Line {
+                at0: dh.signum() * HUGE_ELEVATION,
+                slope: 0.0,
+            };
+        }
+        Line {
+            at0: dh * self.mid.perp_dot(along) / c,
+            slope: dh * self.perp.perp_dot(along) / c,
+        }
+    }
+
+    /// The point where the ray of parameter `s` meets the line of `edge`, at height `h`.
+    fn point_on(&self, grid: &EdgeGrid, edge: u32, s: f64, h: f64) -> DVec3 {
+        let e = &grid.edges[edge as usize];
+        let along = e.b - e.a;
+        let u = (self.mid + self.perp * s).normalize();
+        let t = (e.a - self.origin).perp_dot(along) / u.perp_dot(along);
+        let p = self.origin + u * t;
+        DVec3::new(p.x, p.y, h)
+    }
+}
+
+impl<'a> Judge<'a> {
+    pub fn new(buildings: &'a [Building]) -> Judge<'a> {
+        let grid = EdgeGrid::new(buildings);
+        let vertices = buildings
+            .iter()
+            .enumerate()
+            .flat_map(|(i, b)| {
+                b.footprint.iter().flat_map(move |p| {
+                    std::iter::once(&p.exterior)
+                        .chain(p.holes.iter())
+                        .flat_map(move |r| r.iter().map(move |v| (*v, i as u32)))
+                })
+            })
+            .collect();
+        let bounds = buildings
+            .iter()
+            .map(|b| multipolygon_bounds(&b.footprint))
+            .collect();
+        Judge {
+            buildings,
+            grid,
+            vertices,
+            bounds,
+        }
+    }
+
+    /// Every building seen from `viewpoint`, each with a point of it seen.
+    pub fn view(&self, viewpoint: DVec3, scratch: &mut Scratch) -> View {
+        let origin = viewpoint.truncate();
+        let z = viewpoint.z;
+        let n = self.buildings.len();
+        scratch.seen.clear();
+        scratch.seen.resize(n, None);
+        let mut lifted_around = Vec::new();
+        for (i, b) in self.buildings.iter().enumerate() {
+            let r = &self.bounds[i];
+            if r.min.x <= origin.x
+                && origin.x <= r.max.x
+                && r.min.y <= origin.y
+                && origin.y <= r.max.y
+                && point_in_multipolygon(origin, &b.footprint)
+            {
+                if b.occludes {
+                    return View::InsideBuilding(i as u32);
+                }
+                // Standing under a lifted part: it is overhead, hence seen.
+                lifted_around.push(i as u32);
+                scratch.seen[i] = Some(DVec3::new(origin.x, origin.y, b.height));
+            }
+        }
+        self.collect_azimuths(origin, scratch);
+        let beyond = std::mem::take(&mut scratch.beyond);
+        let azimuths = std::mem::take(&mut scratch.azimuths);
+        let mut rays = 0u64;
+        for (k, &a0) in azimuths.iter().enumerate() {
+            let a1 = match azimuths.get(k + 1) {
+                Some(&a) => a,
+                None => azimuths[0] + std::f64::consts::TAU,
+            };
+            let width = a1 - a0;
+            if width < MIN_WEDGE {
+                continue;
+            }
+            let centre = a0 + 0.5 * width;
+            let mid = DVec2::new(centre.cos(), centre.sin());
+            let wedge = Wedge {
+                origin,
+                z,
+                mid,
+                perp: mid.perp(),
+            };
+            let reach = (0.5 * width).tan();
+            scratch.envelope.reset(-reach, reach);
+            scratch.open.clear();
+            scratch
+                .open
+                .extend(lifted_around.iter().map(|&b| (b, None)));
+            rays += 1;
+            self.judge_wedge(&wedge, &beyond, scratch);
+        }
+        scratch.beyond = beyond;
+        scratch.azimuths = azimuths;
+        let sightings = scratch
+            .seen
+            .iter()
+            .enumerate()
+            .filter_map(|(i, w)| {
+                w.map(|witness| Sighting {
+                    building: i as u32,
+                    witness,
+                })
+            })
+            .collect();
+        View::Seen { sightings, rays }
+    }
+
+    /// Sorted vertex azimuths plus the fan into `scratch.azimuths`, and in
+    /// `scratch.beyond` (distance, greatest height of the buildings reaching
+    /// at least that far) ascending by distance.
+    fn collect_azimuths(&self, origin: DVec2, scratch: &mut Scratch) {
+        let az = &mut scratch.azimuths;
+        az.clear();
+        scratch.farthest.clear();
+        scratch.farthest.resize(self.buildings.len(), 0.0);
+        for &(v, b) in &self.vertices {
+            let d = v - origin;
+            let d2 = d.length_squared();
+            if d2 > 1e-24 {
+                az.push(d.y.atan2(d.x));
+            }
+            let f = &mut scratch.farthest[b as usize];
+            *f = f.max(d2);
+        }
+        az.extend((0..FAN_DIRECTIONS).map(|k| {
+            -std::f64::consts::PI + std::f64::consts::TAU * k as f64 / FAN_DIRECTIONS as f64
+        }));
+        az.sort_by(f64::total_cmp);
+        az.dedup();
+        let beyond = &mut scratch.beyond;
+        beyond.clear();
+        beyond.extend(
+            scratch
+                .farthest
+                .iter()
+                .zip(self.buildings)
+                .map(|(d2, b)| (d2.sqrt(), b.height)),
+        );
+        beyond.sort_by(|a, b| a.0.total_cmp(&b.0));
+        for i in (0..beyond.len().saturating_sub(1)).rev() {
+            beyond[i].1 = beyond[i].1.max(beyond[i + 1].1);
+        }
+    }
+
+    /// Walk the wedge's middle ray and judge every interval on it over the
+    /// whole wedge.
+    fn judge_wedge(&self, wedge: &Wedge, beyond: &[(f64, f64)], scratch: &mut Scratch) {
+        let Scratch {
+            ray,
+            envelope,
+            seen,
+            open,
+            ..
+        } = scratch;
+        self.grid.walk(wedge.origin, wedge.mid, ray, |batch: &[Crossing]| {
+            for c in batch {
+                match open.iter().position(|o| o.0 == c.building) {
+                    None => open.push((c.building, Some(c.edge))),
+                    Some(i) => {
+                        let (b, near) = open.swap_remove(i);
+                        if let Some(near) = near {
+                            self.judge_interval(wedge, b, near, c.edge, envelope, seen);
+                        }
+                    }
+                }
+            }
+            let last = batch.last().map(|c| c.edge);
+            !self.nothing_more_to_see(wedge, last, open, envelope, beyond)
+        });
+    }
+
+    /// Judge one building interval entered by edge `near` and left by edge
+    /// `far`, then raise the horizon by it if the building occludes.
+    fn judge_interval(
+        &self,
+        wedge: &Wedge,
+        building: u32,
+        near: u32,
+        far: u32,
+        envelope: &mut Envelope,
+        seen: &mut [Option<DVec3>],
+    ) {
+        let b = &self.buildings[building as usize];
+        let dh = b.height - wedge.z;
+        let corner_edge = if dh >= 0.0 { near } else { far };
+        let line = if dh == 0.0 {
+            Line {
+                at0: 0.0,
+                slope: 0.0,
+            }
+        } else {
+            wedge.elevation(&self.grid, corner_edge, dh)
+        };
+        if seen[building as usize].is_none() {
+            let (s, margin) = envelope.best_against(&line);
+            if margin >= 0.0 {
+                seen[building as usize] =
+                    Some(wedge.point_on(&self.grid, corner_edge, s, b.height));
+            }
+        }
+        if b.occludes {
+            envelope.insert(line);
+        }
+    }
+
+    /// True when the horizon already hides everything the rest of the wedge
+    /// can hold: every interval still to come lies beyond the line of the
+    /// last edge crossed (or of the edge an open interval was entered by),
+    /// belongs to a building reaching at least that far, and is no higher
+    /// than the highest such building.
+    fn nothing_more_to_see(
+        &self,
+        wedge: &Wedge,
+        last: Option<u32>,
+        open: &[(u32, Option<u32>)],
+        envelope: &Envelope,
+        beyond: &[(f64, f64)],
+    ) -> bool {
+        if envelope.is_empty() {
+            return false;
+        }
+        let Some(last) = last else {
+            return false;
+        };
+        let candidates = || {
+            std::iter::once(last).chain(open.iter().filter_map(|o| o.1))
+        };
+        let mut nearest = f64::INFINITY;
+        for e in candidates() {
+            let edge = &self.grid.edges[e as usize];
+            let along = edge.b - edge.a;
+            let len = along.length();
+            if len == 0.0 {
+                return false;
+            }
+            nearest = nearest.min((edge.a - wedge.origin).perp_dot(along).abs() / len);
+        }
+        let i = beyond.partition_point(|&(d, _)| d < nearest);
+        let Some(&(_, highest)) = beyond.get(i) else {
+            return true;
+        };
+        let dh = highest - wedge.z;
+        if dh <= 0.0 {
+            return envelope.strictly_above(&Line {
+                at0: 0.0,
+                slope: 0.0,
+            });
+        }
+        candidates().all(|e| envelope.strictly_above(&wedge.elevation(&self.grid, e, dh)))
+    }
+}
