@@ -134,7 +134,8 @@ fn a_tall_house_shows_over_a_low_one() {
         block("hidden", 20.0, 10.0, 23.0, 13.0, 4.0),
     ];
     let judge = Judge::new(&city);
-    let View::Seen { sightings, .. } = judge.view(DVec3::new(0.0, 0.0, 1.7), &mut Scratch::default())
+    let View::Seen { sightings, .. } =
+        judge.view(DVec3::new(0.0, 0.0, 1.7), &mut Scratch::default())
     else {
         panic!("inside a building");
     };
@@ -145,20 +146,17 @@ fn a_tall_house_shows_over_a_low_one() {
     assert_eq!(names, ["low", "tower"]);
     // The tower is seen at the top of its near wall (x = 25, z = 30).
     let w = sightings[1].witness;
-    assert!((w.x - 25.0).abs() < 1e-9 && (w.z - 30.0).abs() < 1e-12, "{w}");
+    assert!(
+        (w.x - 25.0).abs() < 1e-9 && (w.z - 30.0).abs() < 1e-12,
+        "{w}"
+    );
     assert!(w.y.abs() <= 5.0 + 1e-9);
     assert!(segment_clear(&city, DVec3::new(0.0, 0.0, 1.7), w));
     // A tower just too low to clear the wall (elevation 2.3/10 at x = 10
     // needs a height of 1.7 + 0.23 * 25 = 7.45 at x = 25) stays hidden.
-    let lower = vec![
-        city[0].clone(),
-        block("tower", 25.0, -5.0, 35.0, 5.0, 7.4),
-    ];
+    let lower = vec![city[0].clone(), block("tower", 25.0, -5.0, 35.0, 5.0, 7.4)];
     assert_eq!(seen_ids(&lower, DVec3::new(0.0, 0.0, 1.7)), ids(&["low"]));
-    let higher = vec![
-        city[0].clone(),
-        block("tower", 25.0, -5.0, 35.0, 5.0, 7.5),
-    ];
+    let higher = vec![city[0].clone(), block("tower", 25.0, -5.0, 35.0, 5.0, 7.5)];
     assert_eq!(
         seen_ids(&higher, DVec3::new(0.0, 0.0, 1.7)),
         ids(&["low", "tower"])
@@ -355,10 +353,10 @@ fn the_judge_agrees_with_brute_force_on_random_scenes() {
                     rng.random_range(0.05..30.0)
                 },
             );
-            if city
-                .iter()
-                .any(|b| point_in_multipolygon(p.truncate(), &b.footprint) || distance_to_outline(b, p.truncate()) < 0.01)
-            {
+            if city.iter().any(|b| {
+                point_in_multipolygon(p.truncate(), &b.footprint)
+                    || distance_to_outline(b, p.truncate()) < 0.01
+            }) {
                 continue;
             }
             views += 1;
@@ -391,7 +389,10 @@ fn the_judge_agrees_with_brute_force_on_random_scenes() {
             // Everything brute force sees, the judge sees.
             let brute = brute_force_seen(&city, p, 0.1);
             let missed: Vec<&String> = brute.iter().filter(|id| !judged.contains(id)).collect();
-            assert!(missed.is_empty(), "scene {scene}, {p}: judge missed {missed:?}");
+            assert!(
+                missed.is_empty(),
+                "scene {scene}, {p}: judge missed {missed:?}"
+            );
             checked += 1;
             seen_total += judged.len();
         }
@@ -517,7 +518,10 @@ fn lower_viewpoints_see_no_more_than_the_eye() {
         };
         let high = set(1.7, &mut scratch);
         let low = set(0.05, &mut scratch);
-        assert!(low.iter().all(|b| high.contains(b)), "{p}: {low:?} vs {high:?}");
+        assert!(
+            low.iter().all(|b| high.contains(b)),
+            "{p}: {low:?} vs {high:?}"
+        );
         compared += 1;
     }
     assert!(compared > 20);

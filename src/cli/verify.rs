@@ -13,8 +13,7 @@ use super::common::InputArgs;
 use crate::input::read_city;
 use crate::pvs::PvsReader;
 use crate::verify::{
-    DEFAULT_CELLS, DEFAULT_SAMPLES, DEFAULT_SEED, VerifyOptions, VerifyReport,
-    verify_with_progress,
+    DEFAULT_CELLS, DEFAULT_SAMPLES, DEFAULT_SEED, VerifyOptions, VerifyReport, verify_with_progress,
 };
 use crate::{Error, Result};
 

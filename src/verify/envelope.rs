@@ -52,10 +52,7 @@ impl Envelope {
     /// value there.
     pub fn breakpoints(&self) -> impl Iterator<Item = (f64, f64)> + '_ {
         let last = self.pieces.last().map(|&(_, l)| (self.hi, l.at(self.hi)));
-        self.pieces
-            .iter()
-            .map(|&(s, l)| (s, l.at(s)))
-            .chain(last)
+        self.pieces.iter().map(|&(s, l)| (s, l.at(s))).chain(last)
     }
 
     /// Where `line` comes closest to rising above the envelope: the `s` of the
@@ -142,11 +139,26 @@ mod tests {
     #[test]
     fn envelope_equals_the_pointwise_maximum() {
         let lines = [
-            Line { at0: 0.0, slope: 1.0 },
-            Line { at0: 0.5, slope: -1.0 },
-            Line { at0: 0.2, slope: 0.0 },
-            Line { at0: -3.0, slope: 0.1 },
-            Line { at0: 0.3, slope: 0.5 },
+            Line {
+                at0: 0.0,
+                slope: 1.0,
+            },
+            Line {
+                at0: 0.5,
+                slope: -1.0,
+            },
+            Line {
+                at0: 0.2,
+                slope: 0.0,
+            },
+            Line {
+                at0: -3.0,
+                slope: 0.1,
+            },
+            Line {
+                at0: 0.3,
+                slope: 0.5,
+            },
         ];
         let mut env = Envelope::default();
         env.reset(-1.0, 1.0);
@@ -176,14 +188,32 @@ mod tests {
     fn a_line_above_somewhere_is_found() {
         let mut env = Envelope::default();
         env.reset(-1.0, 1.0);
-        env.insert(Line { at0: 0.0, slope: 1.0 });
-        env.insert(Line { at0: 0.0, slope: -1.0 });
+        env.insert(Line {
+            at0: 0.0,
+            slope: 1.0,
+        });
+        env.insert(Line {
+            at0: 0.0,
+            slope: -1.0,
+        });
         // |s| envelope; the line 0.1 rises above it only near s = 0.
-        let (s, margin) = env.best_against(&Line { at0: 0.1, slope: 0.0 });
+        let (s, margin) = env.best_against(&Line {
+            at0: 0.1,
+            slope: 0.0,
+        });
         assert!(s.abs() < 1e-12 && margin > 0.0);
-        let (_, margin) = env.best_against(&Line { at0: -0.1, slope: 0.0 });
+        let (_, margin) = env.best_against(&Line {
+            at0: -0.1,
+            slope: 0.0,
+        });
         assert!(margin < 0.0);
-        assert!(env.strictly_above(&Line { at0: -0.1, slope: 0.05 }));
-        assert!(!env.strictly_above(&Line { at0: 0.0, slope: 0.0 }));
+        assert!(env.strictly_above(&Line {
+            at0: -0.1,
+            slope: 0.05
+        }));
+        assert!(!env.strictly_above(&Line {
+            at0: 0.0,
+            slope: 0.0
+        }));
     }
 }

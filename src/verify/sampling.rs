@@ -80,7 +80,11 @@ pub fn cell_viewpoints(
 
 /// The point at fraction `u` in [0, 1) of the perimeter, from corner 0.
 fn on_perimeter(t: &[DVec2; 3], u: f64) -> DVec2 {
-    let lengths = [t[0].distance(t[1]), t[1].distance(t[2]), t[2].distance(t[0])];
+    let lengths = [
+        t[0].distance(t[1]),
+        t[1].distance(t[2]),
+        t[2].distance(t[0]),
+    ];
     let total: f64 = lengths.iter().sum();
     if total <= 0.0 {
         return t[0];

@@ -256,21 +256,22 @@ impl<'a> Judge<'a> {
             open,
             ..
         } = scratch;
-        self.grid.walk(wedge.origin, wedge.mid, ray, |batch: &[Crossing]| {
-            for c in batch {
-                match open.iter().position(|o| o.0 == c.building) {
-                    None => open.push((c.building, Some(c.edge))),
-                    Some(i) => {
-                        let (b, near) = open.swap_remove(i);
-                        if let Some(near) = near {
-                            self.judge_interval(wedge, b, near, c.edge, envelope, seen);
+        self.grid
+            .walk(wedge.origin, wedge.mid, ray, |batch: &[Crossing]| {
+                for c in batch {
+                    match open.iter().position(|o| o.0 == c.building) {
+                        None => open.push((c.building, Some(c.edge))),
+                        Some(i) => {
+                            let (b, near) = open.swap_remove(i);
+                            if let Some(near) = near {
+                                self.judge_interval(wedge, b, near, c.edge, envelope, seen);
+                            }
                         }
                     }
                 }
-            }
-            let last = batch.last().map(|c| c.edge);
-            !self.nothing_more_to_see(wedge, last, open, envelope, beyond)
-        });
+                let last = batch.last().map(|c| c.edge);
+                !self.nothing_more_to_see(wedge, last, open, envelope, beyond)
+            });
     }
 
     /// Judge one building interval entered by edge `near` and left by edge
@@ -326,9 +327,7 @@ impl<'a> Judge<'a> {
         let Some(last) = last else {
             return false;
         };
-        let candidates = || {
-            std::iter::once(last).chain(open.iter().filter_map(|o| o.1))
-        };
+        let candidates = || std::iter::once(last).chain(open.iter().filter_map(|o| o.1));
         let mut nearest = f64::INFINITY;
         for e in candidates() {
             let edge = &self.grid.edges[e as usize];
