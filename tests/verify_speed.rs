@@ -78,3 +78,37 @@ fn measure_200_cells_of_a_1000_building_city() {
     assert!(report.violations.is_empty());
     assert_eq!(report.viewpoints, 200 * 64);
 }
+
+#[test]
+#[ignore]
+fn measure_200_cells_of_kotka() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/kotka.geojson");
+    let city = citypvs::input::read_city(&path, &citypvs::input::InputOptions::default())
+        .expect("fixtures/kotka.geojson reads");
+    let cells = street_cells(&city.buildings, 200, 3);
+    let everything: Vec<u32> = (0..city.buildings.len() as u32).collect();
+    let visible = vec![everything; cells.len()];
+    let report = verify(
+        &city.buildings,
+        &cells,
+        1.7,
+        &visible,
+        &VerifyOptions {
+            cells: None,
+            samples: 64,
+            seed: 1,
+        },
+    );
+    let seen: usize = report.cells.iter().map(|c| c.seen).sum();
+    eprintln!(
+        "Kotka, {} buildings, {} cells x 64 viewpoints on {} threads: {:.1} s, {:.0} rays per viewpoint, {:.1} buildings seen per cell, {} viewpoints inside buildings",
+        city.buildings.len(),
+        report.cells_checked,
+        rayon::current_num_threads(),
+        report.seconds,
+        report.rays as f64 / report.viewpoints as f64,
+        seen as f64 / report.cells_checked as f64,
+        report.blocked_viewpoints.len()
+    );
+    assert!(report.violations.is_empty());
+}
