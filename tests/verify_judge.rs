@@ -72,23 +72,37 @@ fn segment_clear(buildings: &[Building], p: DVec3, q: DVec3) -> bool {
     })
 }
 
-/// Buildings with some point of their top outline (spacing `step`) seen
-/// from `p` by an unobstructed straight segment.
+/// Points every `step` metres along every footprint outline.
+fn outline_points(b: &Building, step: f64) -> Vec<DVec2> {
+    b.footprint
+        .iter()
+        .flat_map(polygon_edges)
+        .flat_map(|(a, c)| {
+            let n = ((a.distance(c) / step).ceil() as usize).max(1);
+            (0..=n).map(move |i| a.lerp(c, i as f64 / n as f64))
+        })
+        .collect()
+}
+
+/// Buildings with some point of their roof's outline seen from `p` by an
+/// unobstructed straight segment. Besides its own outline, a roof's outline
+/// includes the feet of other buildings' walls standing on it (overlapping
+/// footprints). Points every `step` metres.
 fn brute_force_seen(buildings: &[Building], p: DVec3, step: f64) -> Vec<String> {
+    let outlines: Vec<Vec<DVec2>> = buildings.iter().map(|b| outline_points(b, step)).collect();
     let mut out: Vec<String> = buildings
         .iter()
-        .filter(|b| {
-            b.footprint.iter().any(|poly| {
-                polygon_edges(poly).any(|(a, c)| {
-                    let n = ((a.distance(c) / step).ceil() as usize).max(1);
-                    (0..=n).any(|i| {
-                        let q = a.lerp(c, i as f64 / n as f64).extend(b.height);
-                        segment_clear(buildings, p, q)
-                    })
-                })
-            })
+        .enumerate()
+        .filter(|&(i, b)| {
+            let on_roof = outlines.iter().enumerate().flat_map(|(j, pts)| {
+                pts.iter()
+                    .filter(move |q| j == i || point_in_multipolygon(**q, &b.footprint))
+            });
+            on_roof
+                .into_iter()
+                .any(|q| segment_clear(buildings, p, q.extend(b.height)))
         })
-        .map(|b| b.id.clone())
+        .map(|(_, b)| b.id.clone())
         .collect();
     out.sort();
     out
@@ -262,6 +276,34 @@ fn houses_sharing_a_wall_and_lifted_parts() {
     );
 }
 
+#[test]
+fn overlapping_footprints_are_judged_as_solids() {
+    // An outline with a tower part and a low part inside it (OpenStreetMap
+    // style), seen from outside.
+    let city = vec![
+        block("outline", 10.0, -10.0, 50.0, 10.0, 5.0),
+        block("tower_part", 30.0, -5.0, 40.0, 5.0, 20.0),
+        block("low_part", 15.0, -3.0, 20.0, 3.0, 3.0),
+    ];
+    // From 10 m up the outline's roof shows in front of the tower part (its
+    // far edge, behind the tower, does not); the low part is buried.
+    assert_eq!(
+        seen_ids(&city, DVec3::new(0.0, 0.0, 10.0)),
+        ids(&["outline", "tower_part"])
+    );
+    assert_eq!(
+        seen_ids(&city, DVec3::new(0.0, 0.0, 1.7)),
+        ids(&["outline", "tower_part"])
+    );
+    // A low part sticking out of the outline shows.
+    let mut out = city.clone();
+    out[2] = block("low_part", 5.0, -3.0, 20.0, 3.0, 3.0);
+    assert_eq!(
+        seen_ids(&out, DVec3::new(0.0, 0.0, 1.7)),
+        ids(&["outline", "tower_part", "low_part"])
+    );
+}
+
 // ---------------------------------------------------------------------------
 // Random scenes against the brute-force reference.
 
@@ -297,7 +339,32 @@ fn random_scene(rng: &mut ChaCha8Rng) -> Vec<Building> {
             };
             let id = format!("{gx}-{gy}");
             let kind = rng.random_range(0..4);
-            if kind == 0 {
+            if kind == 2 {
+                // An outline and a part of it (nested or sticking out), as in
+                // OpenStreetMap: overlapping footprints.
+                let (px, py) = (
+                    rng.random_range(0.5..1.0) * hx,
+                    rng.random_range(0.5..1.0) * hy,
+                );
+                let shift = if rng.random_bool(0.5) { 0.0 } else { 0.5 * hx };
+                for (k, r) in [
+                    rect(-hx, -hy, hx, hy),
+                    rect(shift - px, -py, shift + px, py),
+                ]
+                .into_iter()
+                .enumerate()
+                {
+                    out.push(Building {
+                        id: format!("{id}:{k}"),
+                        footprint: vec![Polygon {
+                            exterior: r,
+                            holes: vec![],
+                        }],
+                        height: height(rng),
+                        occludes: true,
+                    });
+                }
+            } else if kind == 0 {
                 let split = rng.random_range(-0.5..0.5) * hx;
                 for (k, (x0, x1)) in [(-hx, split), (split, hx)].into_iter().enumerate() {
                     out.push(Building {
@@ -374,10 +441,12 @@ fn the_judge_agrees_with_brute_force_on_random_scenes() {
                 let b = &city[s.building as usize];
                 assert!((s.witness.z - b.height).abs() < 1e-12);
                 assert!(
-                    distance_to_outline(b, s.witness.truncate()) < 1e-6,
-                    "scene {scene}, {p}: witness {} off {}",
+                    distance_to_outline(b, s.witness.truncate()) < 1e-6
+                        || point_in_multipolygon(s.witness.truncate(), &b.footprint),
+                    "scene {scene}, {p}: witness {} off {} by {}",
                     s.witness,
-                    b.id
+                    b.id,
+                    distance_to_outline(b, s.witness.truncate())
                 );
                 assert!(
                     segment_clear(&city, p, s.witness),

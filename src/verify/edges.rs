@@ -128,6 +128,36 @@ impl EdgeGrid {
         (x, y)
     }
 
+    /// The edge lists of all grid cells.
+    pub fn cell_lists(&self) -> impl Iterator<Item = &[u32]> + '_ {
+        self.starts
+            .windows(2)
+            .map(|w| &self.items[w[0] as usize..w[1] as usize])
+    }
+
+    /// Every point where edges of two different buildings cross (footprints
+    /// that overlap), sorted and without repeats.
+    pub fn crossings_between_buildings(&self) -> Vec<DVec2> {
+        let mut points = Vec::new();
+        for list in self.cell_lists() {
+            for (k, &i) in list.iter().enumerate() {
+                let e = &self.edges[i as usize];
+                for &j in &list[k + 1..] {
+                    let f = &self.edges[j as usize];
+                    if e.building == f.building {
+                        continue;
+                    }
+                    if let Some(p) = proper_crossing(e.a, e.b, f.a, f.b) {
+                        points.push(p);
+                    }
+                }
+            }
+        }
+        points.sort_by(|p, q| p.x.total_cmp(&q.x).then(p.y.total_cmp(&q.y)));
+        points.dedup();
+        points
+    }
+
     fn cell_edges(&self, x: usize, y: usize) -> &[u32] {
         let k = y * self.nx + x;
         &self.items[self.starts[k] as usize..self.starts[k + 1] as usize]
@@ -267,6 +297,20 @@ impl EdgeGrid {
         }
         (t0 <= t1).then_some((t0, t1))
     }
+}
+
+/// The point where segments `a`-`b` and `c`-`d` cross, if they do (touching
+/// at end points counts: the point is returned too).
+fn proper_crossing(a: DVec2, b: DVec2, c: DVec2, d: DVec2) -> Option<DVec2> {
+    let r = b - a;
+    let s = d - c;
+    let den = r.perp_dot(s);
+    if den == 0.0 {
+        return None;
+    }
+    let t = (c - a).perp_dot(s) / den;
+    let u = (c - a).perp_dot(r) / den;
+    ((0.0..=1.0).contains(&t) && (0.0..=1.0).contains(&u)).then(|| a + r * t)
 }
 
 #[cfg(test)]

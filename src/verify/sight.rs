@@ -60,6 +60,9 @@ pub struct Judge<'a> {
     grid: EdgeGrid,
     /// Every footprint vertex with its building.
     vertices: Vec<(DVec2, u32)>,
+    /// Where edges of different buildings cross (overlapping footprints):
+    /// the order of crossings along a ray changes there too.
+    overlaps: Vec<DVec2>,
     bounds: Vec<Rect>,
 }
 
@@ -131,10 +134,12 @@ impl<'a> Judge<'a> {
             .iter()
             .map(|b| multipolygon_bounds(&b.footprint))
             .collect();
+        let overlaps = grid.crossings_between_buildings();
         Judge {
             buildings,
             grid,
             vertices,
+            overlaps,
             bounds,
         }
     }
@@ -226,6 +231,12 @@ impl<'a> Judge<'a> {
             let f = &mut scratch.farthest[b as usize];
             *f = f.max(d2);
         }
+        for &v in &self.overlaps {
+            let d = v - origin;
+            if d.length_squared() > 1e-24 {
+                az.push(d.y.atan2(d.x));
+            }
+        }
         az.extend((0..FAN_DIRECTIONS).map(|k| {
             -std::f64::consts::PI + std::f64::consts::TAU * k as f64 / FAN_DIRECTIONS as f64
         }));
@@ -246,8 +257,8 @@ impl<'a> Judge<'a> {
         }
     }
 
-    /// Walk the wedge's middle ray and judge every interval on it over the
-    /// whole wedge.
+    /// Walk the wedge's middle ray and judge every building on it over the
+    /// whole wedge, crossing by crossing.
     fn judge_wedge(&self, wedge: &Wedge, beyond: &[(f64, f64)], scratch: &mut Scratch) {
         let Scratch {
             ray,
@@ -260,84 +271,154 @@ impl<'a> Judge<'a> {
             .walk(wedge.origin, wedge.mid, ray, |batch: &[Crossing]| {
                 for c in batch {
                     match open.iter().position(|o| o.0 == c.building) {
-                        None => open.push((c.building, Some(c.edge))),
+                        None => self.enter(wedge, c, open, envelope, seen),
                         Some(i) => {
                             let (b, near) = open.swap_remove(i);
-                            if let Some(near) = near {
-                                self.judge_interval(wedge, b, near, c.edge, envelope, seen);
+                            if near.is_some() {
+                                self.leave(wedge, b, c.edge, open, envelope, seen);
                             }
                         }
                     }
                 }
                 let last = batch.last().map(|c| c.edge);
-                !self.nothing_more_to_see(wedge, last, open, envelope, beyond)
+                !self.nothing_more_to_see(wedge, last, envelope, beyond)
             });
     }
 
-    /// Judge one building interval entered by edge `near` and left by edge
-    /// `far`, then raise the horizon by it if the building occludes.
-    fn judge_interval(
+    /// The ray enters building `c.building` through edge `c.edge`.
+    ///
+    /// A building at least as high as the eye is seen, if at all, at the top
+    /// of the wall it is entered by; it is judged here, then raises the
+    /// horizon (its wall top is the worse end for every sight line beyond).
+    /// A lower building still open here whose roof runs into this taller
+    /// one is judged at the foot of this wall on its roof (the far end of
+    /// that stretch of roof).
+    fn enter(
+        &self,
+        wedge: &Wedge,
+        c: &Crossing,
+        open: &mut Vec<(u32, Option<u32>)>,
+        envelope: &mut Envelope,
+        seen: &mut [Option<DVec3>],
+    ) {
+        let b = &self.buildings[c.building as usize];
+        if b.occludes {
+            for k in 0..open.len() {
+                let target = open[k].0;
+                let t = &self.buildings[target as usize];
+                if open[k].1.is_some()
+                    && seen[target as usize].is_none()
+                    && t.height < wedge.z
+                    && t.height < b.height
+                {
+                    self.judge_roof_point(wedge, target, c.edge, open, envelope, seen);
+                }
+            }
+        }
+        let dh = b.height - wedge.z;
+        if dh >= 0.0 {
+            let line = wedge.elevation(&self.grid, c.edge, dh);
+            self.judge(wedge, c.building, c.edge, &line, envelope, seen);
+            if b.occludes {
+                envelope.insert(line);
+            }
+        }
+        open.push((c.building, Some(c.edge)));
+    }
+
+    /// The ray leaves `building` through edge `far` (already removed from
+    /// `open`). A building lower than the eye is seen, if at all, at the far
+    /// end of its roof; judged here, then it raises the horizon.
+    fn leave(
         &self,
         wedge: &Wedge,
         building: u32,
-        near: u32,
         far: u32,
+        open: &[(u32, Option<u32>)],
         envelope: &mut Envelope,
         seen: &mut [Option<DVec3>],
     ) {
         let b = &self.buildings[building as usize];
         let dh = b.height - wedge.z;
-        let corner_edge = if dh >= 0.0 { near } else { far };
-        let line = if dh == 0.0 {
-            Line {
-                at0: 0.0,
-                slope: 0.0,
+        if dh < 0.0 {
+            if seen[building as usize].is_none() {
+                self.judge_roof_point(wedge, building, far, open, envelope, seen);
             }
-        } else {
-            wedge.elevation(&self.grid, corner_edge, dh)
-        };
-        if seen[building as usize].is_none() {
-            let (s, margin) = envelope.best_against(&line);
-            if margin >= 0.0 {
-                seen[building as usize] =
-                    Some(wedge.point_on(&self.grid, corner_edge, s, b.height));
+            if b.occludes {
+                envelope.insert(wedge.elevation(&self.grid, far, dh));
             }
         }
-        if b.occludes {
-            envelope.insert(line);
+    }
+
+    /// Judge the roof of `target` (lower than the eye) at the ray's crossing
+    /// with `edge`: hidden there if that point lies inside a higher
+    /// occluding building the ray is in (overlapping footprints), otherwise
+    /// seen if it rises above the horizon somewhere in the wedge.
+    fn judge_roof_point(
+        &self,
+        wedge: &Wedge,
+        target: u32,
+        edge: u32,
+        open: &[(u32, Option<u32>)],
+        envelope: &Envelope,
+        seen: &mut [Option<DVec3>],
+    ) {
+        let h = self.buildings[target as usize].height;
+        let buried = open.iter().any(|&(j, near)| {
+            let o = &self.buildings[j as usize];
+            j != target && near.is_some() && o.occludes && o.height > h
+        });
+        if !buried {
+            let line = wedge.elevation(&self.grid, edge, h - wedge.z);
+            self.judge(wedge, target, edge, &line, envelope, seen);
+        }
+    }
+
+    /// Mark `building` seen if its elevation `line` (of a point on `edge`)
+    /// reaches the horizon somewhere in the wedge.
+    fn judge(
+        &self,
+        wedge: &Wedge,
+        building: u32,
+        edge: u32,
+        line: &Line,
+        envelope: &Envelope,
+        seen: &mut [Option<DVec3>],
+    ) {
+        if seen[building as usize].is_some() {
+            return;
+        }
+        let (s, margin) = envelope.best_against(line);
+        if margin >= 0.0 {
+            let h = self.buildings[building as usize].height;
+            seen[building as usize] = Some(wedge.point_on(&self.grid, edge, s, h));
         }
     }
 
     /// True when the horizon already hides everything the rest of the wedge
-    /// can hold: every interval still to come lies beyond the line of the
-    /// last edge crossed (or of the edge an open interval was entered by),
-    /// belongs to a building reaching at least that far, and is no higher
-    /// than the highest such building.
+    /// can hold: every point still to be judged lies beyond the line of the
+    /// last edge crossed, on a building reaching at least that far, and is
+    /// no higher than the highest such building.
     fn nothing_more_to_see(
         &self,
         wedge: &Wedge,
         last: Option<u32>,
-        open: &[(u32, Option<u32>)],
         envelope: &Envelope,
         beyond: &[(f64, f64)],
     ) -> bool {
-        if envelope.is_empty() {
-            return false;
-        }
         let Some(last) = last else {
             return false;
         };
-        let candidates = || std::iter::once(last).chain(open.iter().filter_map(|o| o.1));
-        let mut nearest = f64::INFINITY;
-        for e in candidates() {
-            let edge = &self.grid.edges[e as usize];
-            let along = edge.b - edge.a;
-            let len = along.length();
-            if len == 0.0 {
-                return false;
-            }
-            nearest = nearest.min((edge.a - wedge.origin).perp_dot(along).abs() / len);
+        if envelope.is_empty() {
+            return false;
         }
+        let edge = &self.grid.edges[last as usize];
+        let along = edge.b - edge.a;
+        let len = along.length();
+        if len == 0.0 {
+            return false;
+        }
+        let nearest = (edge.a - wedge.origin).perp_dot(along).abs() / len;
         let i = beyond.partition_point(|&(d, _)| d < nearest);
         let Some(&(_, highest)) = beyond.get(i) else {
             return true;
@@ -349,6 +430,6 @@ impl<'a> Judge<'a> {
                 slope: 0.0,
             });
         }
-        candidates().all(|e| envelope.strictly_above(&wedge.elevation(&self.grid, e, dh)))
+        envelope.strictly_above(&wedge.elevation(&self.grid, last, dh))
     }
 }
