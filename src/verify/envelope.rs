@@ -24,6 +24,8 @@ pub struct Envelope {
     /// (start of the piece, line on it), starts ascending, the first at `lo`.
     pieces: Vec<(f64, Line)>,
     spare: Vec<(f64, Line)>,
+    /// The envelope's smallest value over `[lo, hi]` (at a breakpoint).
+    lowest: f64,
 }
 
 /// Relative tolerance under which two elevations count as equal (touching).
@@ -42,6 +44,7 @@ impl Envelope {
         self.lo = lo;
         self.hi = hi;
         self.pieces.clear();
+        self.lowest = f64::NEG_INFINITY;
     }
 
     pub fn is_empty(&self) -> bool {
@@ -76,19 +79,35 @@ impl Envelope {
 
     /// True when the envelope lies strictly above `line` (beyond the touching
     /// tolerance) over the whole interval. The envelope minus a line is
-    /// convex, so its minimum is at a breakpoint.
+    /// convex, so its minimum is at a breakpoint. Answered at once when the
+    /// envelope's lowest value clears the line's highest (at an end).
     pub fn strictly_above(&self, line: &Line) -> bool {
-        !self.pieces.is_empty()
-            && self.breakpoints().all(|(s, m)| {
-                let v = line.at(s);
+        if self.pieces.is_empty() {
+            return false;
+        }
+        let highest = line.at(self.lo).max(line.at(self.hi));
+        if self.lowest - highest > tolerance(highest, self.lowest) {
+            return true;
+        }
+        if self.pieces.len() == 1 {
+            // A single line: the two ends decide.
+            let l = self.pieces[0].1;
+            return [self.lo, self.hi].iter().all(|&s| {
+                let (m, v) = (l.at(s), line.at(s));
                 m - v > tolerance(v, m)
-            })
+            });
+        }
+        self.breakpoints().all(|(s, m)| {
+            let v = line.at(s);
+            m - v > tolerance(v, m)
+        })
     }
 
     /// Raise the envelope to `max(envelope, line)`.
     pub fn insert(&mut self, line: Line) {
         if self.pieces.is_empty() {
             self.pieces.push((self.lo, line));
+            self.lowest = line.at(self.lo).min(line.at(self.hi));
             return;
         }
         let mut out = std::mem::take(&mut self.spare);
@@ -122,6 +141,10 @@ impl Envelope {
             }
         }
         self.spare = std::mem::replace(&mut self.pieces, out);
+        self.lowest = self
+            .breakpoints()
+            .map(|(_, m)| m)
+            .fold(f64::INFINITY, f64::min);
     }
 }
 

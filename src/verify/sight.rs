@@ -24,7 +24,9 @@ use glam::{DVec2, DVec3};
 
 use super::edges::{Crossing, EdgeGrid, RayScratch};
 use super::envelope::{Envelope, Line};
-use crate::model::{Building, Rect, multipolygon_bounds, point_in_multipolygon};
+use crate::model::{
+    Building, Rect, distance_to_segment, multipolygon_bounds, point_in_multipolygon,
+};
 
 /// Extra wedge boundaries, evenly spaced, so that no wedge is wider than
 /// 2 pi / FAN_DIRECTIONS (the `s` parameter stays small).
@@ -267,6 +269,10 @@ impl<'a> Judge<'a> {
             open,
             ..
         } = scratch;
+        // Index into `beyond` of the last distance looked up (MAX: none yet,
+        // search); distances along a ray mostly grow, so later lookups walk
+        // from here.
+        let mut cursor = usize::MAX;
         self.grid
             .walk(wedge.origin, wedge.mid, ray, |batch: &[Crossing]| {
                 for c in batch {
@@ -281,7 +287,7 @@ impl<'a> Judge<'a> {
                     }
                 }
                 let last = batch.last().map(|c| c.edge);
-                !self.nothing_more_to_see(wedge, last, envelope, beyond)
+                !self.nothing_more_to_see(wedge, last, envelope, beyond, &mut cursor)
             });
     }
 
@@ -396,8 +402,8 @@ impl<'a> Judge<'a> {
     }
 
     /// True when the horizon already hides everything the rest of the wedge
-    /// can hold: every point still to be judged lies beyond the line of the
-    /// last edge crossed, on a building reaching at least that far, and is
+    /// can hold: every point still to be judged lies beyond the last edge
+    /// crossed, on a building reaching at least that far, and is
     /// no higher than the highest such building.
     fn nothing_more_to_see(
         &self,
@@ -405,6 +411,7 @@ impl<'a> Judge<'a> {
         last: Option<u32>,
         envelope: &Envelope,
         beyond: &[(f64, f64)],
+        cursor: &mut usize,
     ) -> bool {
         let Some(last) = last else {
             return false;
@@ -413,13 +420,21 @@ impl<'a> Judge<'a> {
             return false;
         }
         let edge = &self.grid.edges[last as usize];
-        let along = edge.b - edge.a;
-        let len = along.length();
-        if len == 0.0 {
-            return false;
+        // Every ray of the wedge crosses the edge itself, so what lies
+        // beyond is at least as far as the nearest point of the edge.
+        let nearest = distance_to_segment(wedge.origin, edge.a, edge.b);
+        let mut i = if *cursor == usize::MAX {
+            beyond.partition_point(|&(d, _)| d < nearest)
+        } else {
+            *cursor
+        };
+        while i > 0 && beyond[i - 1].0 >= nearest {
+            i -= 1;
         }
-        let nearest = (edge.a - wedge.origin).perp_dot(along).abs() / len;
-        let i = beyond.partition_point(|&(d, _)| d < nearest);
+        while i < beyond.len() && beyond[i].0 < nearest {
+            i += 1;
+        }
+        *cursor = i;
         let Some(&(_, highest)) = beyond.get(i) else {
             return true;
         };
