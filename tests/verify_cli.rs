@@ -6,7 +6,6 @@ use std::process::Command;
 
 use citypvs::input::{InputOptions, read_city};
 use citypvs::pvs::{BakeInfo, PvsData, write_pvs};
-use glam::DVec2;
 
 /// Offset of the city in its file's metres.
 const OFFSET: (f64, f64) = (385_000.0, 6_700_000.0);

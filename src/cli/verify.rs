@@ -66,6 +66,9 @@ pub fn run(args: &VerifyArgs) -> Result<i32> {
     if args.samples == 0 {
         return Err(Error::new("--samples must be at least 1"));
     }
+    if args.cells == 0 && !args.all {
+        return Err(Error::new("--cells must be at least 1"));
+    }
     let threads = args.threads.unwrap_or(0);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
