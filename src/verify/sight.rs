@@ -1,23 +1,25 @@
 //! Exact visibility of buildings from one viewpoint, against the original
 //! footprints at their true heights.
 //!
-//! The azimuths of all footprint vertices (plus a coarse fan) cut the
-//! directions around the viewpoint into wedges. Inside one open wedge no ray
-//! passes a vertex, so every ray crosses the same edges in the same order:
-//! the buildings along the ray form the same sequence of intervals. In the
-//! vertical plane of a ray a building interval is a rectangle; the best point
-//! to see of it is its near top corner when it is at least as high as the
-//! eye, its far top corner otherwise, and a blocker is cleared by a sight line
-//! iff the line passes above that same corner. So with elevations
-//! `(H - z) / distance` of those corners, an interval is seen iff its
-//! elevation is at least every earlier occluding interval's.
+//! The azimuths of all footprint vertices, of the points where footprints of
+//! different buildings cross, and of a coarse fan cut the directions around
+//! the viewpoint into wedges. Inside one open wedge no ray passes such a
+//! point, so every ray crosses the same edges in the same order. In the
+//! vertical plane of a ray a building is a set of rectangles; the best point
+//! to see of one is the top of the wall the ray enters it by when it is at
+//! least as high as the eye, and otherwise the far end of its roof (or the
+//! foot of a taller building's wall standing on that roof). A sight line
+//! clears an earlier building iff it passes above that same kind of corner.
+//! So with elevations `(H - z) / distance` of those corners, a building is
+//! seen iff its elevation reaches every earlier occluding one's, and it is
+//! not inside a taller building there.
 //!
 //! The distance along direction `u` to an edge's line is `c / cross(u, e)`,
 //! so every elevation is a linear function of `u`. Writing `u = m + s m_perp`
 //! over the wedge (`m` its middle direction), elevations are straight lines
 //! in `s`, the running horizon is their upper envelope, and "seen somewhere in
 //! the wedge" is an exact test at the envelope's breakpoints. One ray per
-//! wedge (through its middle) finds the intervals; nothing between rays is
+//! wedge (through its middle) finds the crossings; nothing between rays is
 //! sampled or missed.
 
 use glam::{DVec2, DVec3};
