@@ -27,6 +27,8 @@ pub const DEFAULT_CELLS: usize = 200;
 pub const DEFAULT_SAMPLES: usize = 64;
 /// Seed used when none is given.
 pub const DEFAULT_SEED: u64 = 1;
+/// Viewpoints judged (and held in memory) at a time.
+const VIEWPOINTS_PER_BATCH: usize = 8192;
 
 /// Which cells to check and how densely.
 #[derive(Clone, Debug)]
@@ -130,81 +132,83 @@ pub fn verify_with_progress(
 ) -> VerifyReport {
     let started = Instant::now();
     let chosen = choose_cells(cells.len(), options.cells, options.seed);
-    let jobs: Vec<(usize, DVec3)> = chosen
-        .iter()
-        .flat_map(|&c| {
-            cell_viewpoints(&cells[c], eye_height, options.samples, options.seed, c)
-                .into_iter()
-                .map(move |p| (c, p))
-        })
-        .collect();
     let judge = Judge::new(buildings);
-    let views: Vec<View> = jobs
-        .par_iter()
-        .map_init(Scratch::default, |scratch, &(_, p)| {
-            let view = judge.view(p, scratch);
-            progress(1);
-            view
-        })
-        .collect();
-
     let mut report = VerifyReport {
         cells_checked: chosen.len(),
         cells_total: cells.len(),
-        viewpoints: jobs.len(),
         samples_per_cell: options.samples,
         seed: options.seed,
         eye_height,
         ..VerifyReport::default()
     };
-    let empty = Vec::new();
     let (mut pvs_entries, mut pvs_entries_seen) = (0usize, 0usize);
-    let mut next = 0;
-    for &c in &chosen {
-        // First viewpoint (in sampling order) that saw each building.
-        let mut seen: BTreeMap<u32, (DVec3, DVec3)> = BTreeMap::new();
-        while next < jobs.len() && jobs[next].0 == c {
-            let p = jobs[next].1;
-            match &views[next] {
-                View::Seen { sightings, rays } => {
-                    report.rays += rays;
-                    for s in sightings {
-                        seen.entry(s.building).or_insert((p, s.witness));
+    // Cells go in batches so that memory stays bounded for `--all`.
+    let batch = (VIEWPOINTS_PER_BATCH / options.samples.max(1)).max(1);
+    for group in chosen.chunks(batch) {
+        let jobs: Vec<(usize, DVec3)> = group
+            .iter()
+            .flat_map(|&c| {
+                cell_viewpoints(&cells[c], eye_height, options.samples, options.seed, c)
+                    .into_iter()
+                    .map(move |p| (c, p))
+            })
+            .collect();
+        let views: Vec<View> = jobs
+            .par_iter()
+            .map_init(Scratch::default, |scratch, &(_, p)| {
+                let view = judge.view(p, scratch);
+                progress(1);
+                view
+            })
+            .collect();
+        report.viewpoints += jobs.len();
+        let mut next = 0;
+        for &c in group {
+            // First viewpoint (in sampling order) that saw each building.
+            let mut seen: BTreeMap<u32, (DVec3, DVec3)> = BTreeMap::new();
+            while next < jobs.len() && jobs[next].0 == c {
+                let p = jobs[next].1;
+                match &views[next] {
+                    View::Seen { sightings, rays } => {
+                        report.rays += rays;
+                        for s in sightings {
+                            seen.entry(s.building).or_insert((p, s.witness));
+                        }
                     }
+                    View::InsideBuilding(b) => report.blocked_viewpoints.push(BlockedViewpoint {
+                        cell: c,
+                        building: buildings[*b as usize].id.clone(),
+                        viewpoint: p.to_array(),
+                    }),
                 }
-                View::InsideBuilding(b) => report.blocked_viewpoints.push(BlockedViewpoint {
-                    cell: c,
-                    building: buildings[*b as usize].id.clone(),
-                    viewpoint: p.to_array(),
-                }),
+                next += 1;
             }
-            next += 1;
-        }
-        let pvs = visible.get(c).unwrap_or(&empty);
-        let mut missing = 0;
-        for (&b, &(p, w)) in &seen {
-            if pvs.binary_search(&b).is_err() {
-                missing += 1;
-                report.violations.push(Violation {
-                    cell: c,
-                    building: buildings[b as usize].id.clone(),
-                    viewpoint: p.to_array(),
-                    witness: w.to_array(),
-                });
+            let pvs = visible.get(c).map_or(&[][..], |v| &v[..]);
+            let mut missing = 0;
+            for (&b, &(p, w)) in &seen {
+                if pvs.binary_search(&b).is_err() {
+                    missing += 1;
+                    report.violations.push(Violation {
+                        cell: c,
+                        building: buildings[b as usize].id.clone(),
+                        viewpoint: p.to_array(),
+                        witness: w.to_array(),
+                    });
+                }
             }
+            pvs_entries += pvs.len();
+            pvs_entries_seen += seen.len() - missing;
+            let tightness = pvs.len() as f64 / seen.len().max(1) as f64;
+            report.mean_tightness += tightness;
+            report.worst_tightness = report.worst_tightness.max(tightness);
+            report.cells.push(CellVerdict {
+                cell: c,
+                pvs: pvs.len(),
+                seen: seen.len(),
+                missing,
+                tightness,
+            });
         }
-        pvs_entries += pvs.len();
-        pvs_entries_seen += seen.len() - missing;
-        let tightness = pvs.len() as f64 / seen.len().max(1) as f64;
-        report.mean_tightness += tightness;
-        report.worst_tightness = report.worst_tightness.max(tightness);
-        report.cells.push(CellVerdict {
-            cell: c,
-            pvs: pvs.len(),
-            seen: seen.len(),
-            missing,
-            tightness,
-        });
     }
     if !chosen.is_empty() {
         report.mean_tightness /= chosen.len() as f64;
