@@ -55,6 +55,8 @@ struct Verdict<'a> {
     pvs: String,
     /// True when the city file's SHA-256 equals the one stored in the PVS.
     source_matches: bool,
+    /// The local frame all coordinates below are in.
+    frame: String,
     buildings: usize,
     threads: usize,
     passed: bool,
@@ -159,6 +161,7 @@ fn run_in_pool(args: &VerifyArgs, threads: usize) -> Result<i32> {
         city: args.city.display().to_string(),
         pvs: pvs_name,
         source_matches: info.source_hash == city.source_hash,
+        frame: info.frame.describe(),
         buildings: city.buildings.len(),
         threads,
         passed,
