@@ -383,4 +383,26 @@ mod tests {
         }
         assert!(total > 500, "the rays cross the city: {total}");
     }
+
+    #[test]
+    fn crossings_between_overlapping_buildings() {
+        // Two overlapping squares cross at (5, 3) and (3, 5); a third one
+        // touching the first along a wall adds its shared corners only.
+        let city = vec![
+            square("a", 0.0, 0.0, 5.0),
+            square("b", 3.0, 3.0, 5.0),
+            square("c", 5.0, -5.0, 5.0),
+        ];
+        let grid = EdgeGrid::new(&city);
+        let points = grid.crossings_between_buildings();
+        for p in [DVec2::new(3.0, 5.0), DVec2::new(5.0, 3.0)] {
+            assert!(points.iter().any(|q| q.distance(p) < 1e-12), "{points:?}");
+        }
+        assert!(
+            points
+                .iter()
+                .all(|q| q.x == 3.0 || q.x == 5.0 || q.y == 0.0 || q.y == 5.0),
+            "{points:?}"
+        );
+    }
 }
