@@ -23,7 +23,9 @@ fn seen_ids(buildings: &[Building], p: DVec3) -> Vec<String> {
             ids.sort();
             ids
         }
-        View::InsideBuilding(b) => panic!("viewpoint inside {}", buildings[b as usize].id),
+        View::InsideBuilding { building, .. } => {
+            panic!("viewpoint inside {}", buildings[building as usize].id)
+        }
     }
 }
 
@@ -268,12 +270,43 @@ fn houses_sharing_a_wall_and_lifted_parts() {
         seen_ids(&city, DVec3::new(15.0, -17.0, 1.7)),
         ids(&["r1", "r2", "r3", "tower", "bridge", "across"])
     );
-    // Inside an occluding building the judge refuses.
+    // Inside an occluding building the judge refuses, and says how deep.
     let judge = Judge::new(&city);
-    assert_eq!(
-        judge.view(DVec3::new(5.0, 5.0, 1.7), &mut Scratch::default()),
-        View::InsideBuilding(0)
-    );
+    let View::InsideBuilding { building, depth } =
+        judge.view(DVec3::new(5.0, 5.0, 1.7), &mut Scratch::default())
+    else {
+        panic!("a viewpoint inside r1 is judged");
+    };
+    assert_eq!((building, depth), (0, 5.0));
+}
+
+#[test]
+fn viewpoints_a_rounding_error_inside_a_wall_are_moved_out() {
+    let city = vec![
+        block("wall", 0.0, 0.0, 10.0, 10.0, 10.0),
+        block("opposite", 0.0, -20.0, 10.0, -10.0, 10.0),
+    ];
+    let judge = Judge::new(&city);
+    let mut scratch = Scratch::default();
+    // 0.5 mm inside the wall's south face: judged from just outside it.
+    match judge.view(DVec3::new(5.0, 0.0005, 1.7), &mut scratch) {
+        View::Seen {
+            from, sightings, ..
+        } => {
+            assert!(from.y < 0.0 && from.y > -1e-5 && from.x == 5.0, "{from}");
+            let seen: Vec<u32> = sightings.iter().map(|s| s.building).collect();
+            assert_eq!(seen, [0, 1]);
+        }
+        other => panic!("{other:?}"),
+    }
+    // 5 mm inside: refused.
+    match judge.view(DVec3::new(5.0, 0.005, 1.7), &mut scratch) {
+        View::InsideBuilding { building, depth } => {
+            assert_eq!(building, 0);
+            assert!((depth - 0.005).abs() < 1e-12);
+        }
+        other => panic!("{other:?}"),
+    }
 }
 
 #[test]
@@ -583,7 +616,7 @@ fn lower_viewpoints_see_no_more_than_the_eye() {
             View::Seen { sightings, .. } => {
                 sightings.iter().map(|s| s.building).collect::<Vec<_>>()
             }
-            View::InsideBuilding(_) => unreachable!(),
+            View::InsideBuilding { .. } => unreachable!(),
         };
         let high = set(1.7, &mut scratch);
         let low = set(0.05, &mut scratch);

@@ -219,11 +219,13 @@ fn print_table(v: &Verdict) {
     println!("rays           {}", r.rays);
     println!("time           {:.2} s ({} threads)", r.seconds, v.threads);
     if !r.blocked_viewpoints.is_empty() {
+        let b = &r.blocked_viewpoints[0];
         println!(
-            "not judged     {} viewpoints inside buildings, e.g. cell {} inside {}",
+            "not judged     {} viewpoints inside buildings, e.g. in cell {}, {:.3} m inside {}",
             r.blocked_viewpoints.len(),
-            r.blocked_viewpoints[0].cell,
-            r.blocked_viewpoints[0].building
+            b.cell,
+            b.depth,
+            b.building
         );
     }
     println!("violations     {}", r.violations.len());

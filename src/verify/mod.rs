@@ -66,6 +66,8 @@ pub struct BlockedViewpoint {
     pub cell: usize,
     pub building: String,
     pub viewpoint: [f64; 3],
+    /// Distance from the viewpoint to the building's outline (metres).
+    pub depth: f64,
 }
 
 /// The judge's figures for one cell.
@@ -169,17 +171,24 @@ pub fn verify_with_progress(
             while next < jobs.len() && jobs[next].0 == c {
                 let p = jobs[next].1;
                 match &views[next] {
-                    View::Seen { sightings, rays } => {
+                    View::Seen {
+                        from,
+                        sightings,
+                        rays,
+                    } => {
                         report.rays += rays;
                         for s in sightings {
-                            seen.entry(s.building).or_insert((p, s.witness));
+                            seen.entry(s.building).or_insert((*from, s.witness));
                         }
                     }
-                    View::InsideBuilding(b) => report.blocked_viewpoints.push(BlockedViewpoint {
-                        cell: c,
-                        building: buildings[*b as usize].id.clone(),
-                        viewpoint: p.to_array(),
-                    }),
+                    View::InsideBuilding { building, depth } => {
+                        report.blocked_viewpoints.push(BlockedViewpoint {
+                            cell: c,
+                            building: buildings[*building as usize].id.clone(),
+                            viewpoint: p.to_array(),
+                            depth: *depth,
+                        })
+                    }
                 }
                 next += 1;
             }

@@ -27,7 +27,7 @@ use glam::{DVec2, DVec3};
 use super::edges::{Crossing, EdgeGrid, RayScratch};
 use super::envelope::{Envelope, Line};
 use crate::model::{
-    Building, Rect, distance_to_segment, multipolygon_bounds, point_in_multipolygon,
+    Building, Rect, distance_to_segment, multipolygon_bounds, point_in_multipolygon, polygon_edges,
 };
 
 /// Extra wedge boundaries, evenly spaced, so that no wedge is wider than
@@ -39,6 +39,12 @@ const FAN_DIRECTIONS: usize = 16;
 const MIN_WEDGE: f64 = 1e-11;
 /// An elevation for an edge whose line passes through the viewpoint.
 const HUGE_ELEVATION: f64 = 1e30;
+/// A viewpoint inside an occluding building by at most this much (metres)
+/// is moved out of it: cell edges run along footprint outlines, and the
+/// two may differ by rounding.
+pub const MAX_SNAP: f64 = 1e-3;
+/// How far outside the outline a moved viewpoint is put (metres).
+const SNAP_CLEARANCE: f64 = 1e-6;
 
 /// One building seen from a viewpoint, and a point of it that is seen.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -50,10 +56,18 @@ pub struct Sighting {
 /// What one viewpoint sees.
 #[derive(Clone, Debug, PartialEq)]
 pub enum View {
-    /// The buildings seen, ascending by building index.
-    Seen { sightings: Vec<Sighting>, rays: u64 },
-    /// The viewpoint is inside this occluding building: nothing can be judged.
-    InsideBuilding(u32),
+    /// The buildings seen, ascending by building index, from `from` (the
+    /// viewpoint, or the point within [`MAX_SNAP`] outside a building it was
+    /// moved to).
+    Seen {
+        from: DVec3,
+        sightings: Vec<Sighting>,
+        rays: u64,
+    },
+    /// The viewpoint is inside this occluding building, deeper than
+    /// [`MAX_SNAP`] (`depth`: its distance to the outline): nothing can be
+    /// judged.
+    InsideBuilding { building: u32, depth: f64 },
 }
 
 /// The judge's view of the city: buildings, their edges in a grid, and their
@@ -81,6 +95,32 @@ pub struct Scratch {
     seen: Vec<Option<DVec3>>,
     /// Buildings the ray is inside of: (building, edge it entered by).
     open: Vec<(u32, Option<u32>)>,
+}
+
+/// The point of `building`'s outline nearest to `p`, the distance, and the
+/// direction from the solid towards the outside there.
+fn nearest_outline_point(building: &Building, p: DVec2) -> (DVec2, f64, DVec2) {
+    let mut best = (p, f64::INFINITY, DVec2::X);
+    for poly in &building.footprint {
+        for (a, b) in polygon_edges(poly) {
+            let e = b - a;
+            let len2 = e.length_squared();
+            if len2 == 0.0 {
+                continue;
+            }
+            let t = ((p - a).dot(e) / len2).clamp(0.0, 1.0);
+            let foot = a + e * t;
+            let d = foot.distance(p);
+            if d < best.1 {
+                // Exteriors run counter-clockwise and holes clockwise, so the
+                // solid is on the left of every edge: outside is to the right.
+                let right = DVec2::new(e.y, -e.x).normalize();
+                let outward = if d > 1e-12 { (foot - p) / d } else { right };
+                best = (foot, d, outward);
+            }
+        }
+    }
+    best
 }
 
 /// One wedge of directions being judged.
@@ -150,23 +190,17 @@ impl<'a> Judge<'a> {
 
     /// Every building seen from `viewpoint`, each with a point of it seen.
     pub fn view(&self, viewpoint: DVec3, scratch: &mut Scratch) -> View {
-        let origin = viewpoint.truncate();
+        let origin = match self.free_position(viewpoint.truncate()) {
+            Ok(p) => p,
+            Err((building, depth)) => return View::InsideBuilding { building, depth },
+        };
         let z = viewpoint.z;
         let n = self.buildings.len();
         scratch.seen.clear();
         scratch.seen.resize(n, None);
         let mut lifted_around = Vec::new();
         for (i, b) in self.buildings.iter().enumerate() {
-            let r = &self.bounds[i];
-            if r.min.x <= origin.x
-                && origin.x <= r.max.x
-                && r.min.y <= origin.y
-                && origin.y <= r.max.y
-                && point_in_multipolygon(origin, &b.footprint)
-            {
-                if b.occludes {
-                    return View::InsideBuilding(i as u32);
-                }
+            if !b.occludes && self.contains(i, origin) {
                 // Standing under a lifted part: it is overhead, hence seen.
                 lifted_around.push(i as u32);
                 scratch.seen[i] = Some(DVec3::new(origin.x, origin.y, b.height));
@@ -215,7 +249,42 @@ impl<'a> Judge<'a> {
                 })
             })
             .collect();
-        View::Seen { sightings, rays }
+        View::Seen {
+            from: origin.extend(z),
+            sightings,
+            rays,
+        }
+    }
+
+    fn contains(&self, building: usize, p: DVec2) -> bool {
+        let r = &self.bounds[building];
+        r.min.x <= p.x
+            && p.x <= r.max.x
+            && r.min.y <= p.y
+            && p.y <= r.max.y
+            && point_in_multipolygon(p, &self.buildings[building].footprint)
+    }
+
+    /// `p`, or a point just outside the occluding building(s) it lies in
+    /// if that is within [`MAX_SNAP`]; otherwise the building and the depth.
+    fn free_position(&self, p: DVec2) -> Result<DVec2, (u32, f64)> {
+        let mut q = p;
+        for _ in 0..4 {
+            let Some(b) = (0..self.buildings.len())
+                .find(|&i| self.buildings[i].occludes && self.contains(i, q))
+            else {
+                return Ok(q);
+            };
+            let (foot, depth, outward) = nearest_outline_point(&self.buildings[b], q);
+            if q.distance(p) + depth > MAX_SNAP {
+                return Err((b as u32, depth));
+            }
+            q = foot + outward * SNAP_CLEARANCE;
+        }
+        let b = (0..self.buildings.len())
+            .find(|&i| self.buildings[i].occludes && self.contains(i, q))
+            .unwrap_or(0);
+        Err((b as u32, q.distance(p)))
     }
 
     /// Sorted vertex azimuths plus the fan into `scratch.azimuths`, and in
