@@ -8,6 +8,7 @@ pub mod common;
 pub mod generate;
 pub mod inspect;
 pub mod prepare;
+pub mod verify;
 
 use clap::{Parser, Subcommand};
 
@@ -31,6 +32,8 @@ pub enum Command {
     Bench(bench::BenchArgs),
     /// Print a .pvs file's header and statistics, or dump it as JSON.
     Inspect(inspect::InspectArgs),
+    /// Check a .pvs file against its city by exact visibility from sampled viewpoints.
+    Verify(verify::VerifyArgs),
 }
 
 /// Parse the arguments, run the subcommand, print any error, return the exit status.
@@ -42,6 +45,7 @@ pub fn main() -> i32 {
         Command::Bake(args) => bake::run(&args),
         Command::Bench(args) => bench::run(&args),
         Command::Inspect(args) => inspect::run(&args),
+        Command::Verify(args) => verify::run(&args),
     };
     match result {
         Ok(code) => code,
