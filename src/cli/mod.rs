@@ -8,6 +8,7 @@ pub mod common;
 pub mod generate;
 pub mod inspect;
 pub mod prepare;
+pub mod render;
 
 use clap::{Parser, Subcommand};
 
@@ -31,6 +32,8 @@ pub enum Command {
     Bench(bench::BenchArgs),
     /// Print a .pvs file's header and statistics, or dump it as JSON.
     Inspect(inspect::InspectArgs),
+    /// Draw a PNG map of a city, a cell's visible set, its cull map or every cell's PVS size.
+    Render(render::RenderArgs),
 }
 
 /// Parse the arguments, run the subcommand, print any error, return the exit status.
@@ -42,6 +45,7 @@ pub fn main() -> i32 {
         Command::Bake(args) => bake::run(&args),
         Command::Bench(args) => bench::run(&args),
         Command::Inspect(args) => inspect::run(&args),
+        Command::Render(args) => render::run(&args),
     };
     match result {
         Ok(code) => code,

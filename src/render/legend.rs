@@ -70,6 +70,10 @@ impl Metrics {
         0.7 * self.text
     }
 
+    fn label_gap(&self) -> f32 {
+        1.4 * self.text
+    }
+
     fn entry_width(&self, entry: &Entry) -> f32 {
         let t = self.text;
         match entry {
@@ -79,10 +83,11 @@ impl Metrics {
                 label, low, high, ..
             } => {
                 text_width(label, t)
+                    + self.label_gap()
                     + text_width(low, t)
                     + self.ramp_bar()
                     + text_width(high, t)
-                    + 3.0 * self.inner_gap()
+                    + 2.0 * self.inner_gap()
             }
         }
     }
@@ -134,7 +139,9 @@ fn reserved_width(m: &Metrics, scale_metres: f64, pixels_per_metre: f64) -> f32 
         + m.inner_gap()
         + text_width(&metres_label(scale_metres), m.text)
         + m.gap
-        + 3.0 * m.text
+        + text_width("N", m.text)
+        + m.inner_gap()
+        + 1.2 * m.text
         + m.pad
 }
 
@@ -249,7 +256,7 @@ pub fn draw(
             } => {
                 let mut cx = x;
                 draw_text(pixmap, label, cx, y, t, palette::INK);
-                cx += text_width(label, t) + m.inner_gap();
+                cx += text_width(label, t) + m.label_gap();
                 draw_text(pixmap, low, cx, y, t, palette::INK);
                 cx += text_width(low, t) + m.inner_gap();
                 let bar = m.ramp_bar();
@@ -267,12 +274,14 @@ pub fn draw(
     }
     // Scale bar and north arrow on the first row's right end.
     let y = baseline(0);
-    let arrow_w = 1.4 * t;
+    let arrow_w = 1.2 * t;
     let arrow_x = width - m.pad - arrow_w;
     draw_north_arrow(pixmap, arrow_x, y, arrow_w, t);
+    let n_x = arrow_x - m.inner_gap() - text_width("N", t);
+    draw_text(pixmap, "N", n_x, y, t, palette::INK);
     let label = metres_label(layout.scale_metres);
     let bar_px = (layout.scale_metres * pixels_per_metre) as f32;
-    let label_x = arrow_x - m.gap - text_width(&label, t);
+    let label_x = n_x - m.gap - text_width(&label, t);
     let bar_x = label_x - m.inner_gap() - bar_px;
     let (by, bh) = (y - 0.8 * t, 0.6 * t);
     fill_rect(pixmap, bar_x, by, 0.5 * bar_px, bh, palette::INK);
@@ -288,14 +297,14 @@ pub fn draw(
     draw_text(pixmap, &label, label_x, y, t, palette::INK);
 }
 
-/// An upward arrow with an N above it, `w` wide, its foot on `baseline`.
+/// An upward arrow `w` wide standing on `baseline`, `t` high.
 fn draw_north_arrow(pixmap: &mut Pixmap, x: f32, baseline: f32, w: f32, t: f32) {
-    let tip = baseline - 1.5 * t;
+    let tip = baseline - 1.3 * t;
     let mut pb = PathBuilder::new();
     pb.move_to(x + 0.5 * w, tip);
-    pb.line_to(x + w, baseline + 0.4 * t);
-    pb.line_to(x + 0.5 * w, baseline - 0.1 * t);
-    pb.line_to(x, baseline + 0.4 * t);
+    pb.line_to(x + w, baseline + 0.3 * t);
+    pb.line_to(x + 0.5 * w, baseline - 0.15 * t);
+    pb.line_to(x, baseline + 0.3 * t);
     pb.close();
     if let Some(path) = pb.finish() {
         let mut p = Paint::default();
@@ -303,15 +312,6 @@ fn draw_north_arrow(pixmap: &mut Pixmap, x: f32, baseline: f32, w: f32, t: f32) 
         p.anti_alias = true;
         pixmap.fill_path(&path, &p, FillRule::Winding, Transform::identity(), None);
     }
-    let n = 0.6 * t;
-    draw_text(
-        pixmap,
-        "N",
-        x + 0.5 * w - 0.5 * text_width("N", n),
-        tip - 0.35 * t,
-        n,
-        palette::INK,
-    );
 }
 
 #[cfg(test)]

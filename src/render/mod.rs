@@ -167,7 +167,9 @@ fn tallest(scene: &Scene) -> f64 {
 }
 
 fn metres(v: f64) -> String {
-    if v < 10.0 {
+    if v == v.round() {
+        format!("{v:.0} M")
+    } else if v < 10.0 {
         format!("{v:.1} M")
     } else {
         format!("{v:.0} M")
