@@ -2,7 +2,7 @@
 //! visible set (from a `.pvs` file or computed here), its cull map and every
 //! cell's PVS size as asked, and write the picture as a PNG.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use clap::{Args, ValueEnum};
 
@@ -10,7 +10,7 @@ use super::common::{InputArgs, SceneArgs};
 use crate::input::read_city;
 use crate::prepare::{Scene, prepare};
 use crate::pvs::PvsReader;
-use crate::render::{DEFAULT_SIZE, Focus, Picture, cell_containing, render, view_around};
+use crate::render::{DEFAULT_SIZE, Focus, Picture, Rendered, cell_containing, render, view_around};
 use crate::visibility::{DEFAULT_EYE_HEIGHT, VisibilityParams, cell_cull_map, compute_pvs};
 use crate::{Error, Result};
 
@@ -85,7 +85,7 @@ fn parse_point(text: &str) -> Result<(f64, f64)> {
 }
 
 /// Open the .pvs file and make sure it was baked from this scene.
-fn open_pvs(path: &PathBuf, scene: &Scene, args: &RenderArgs) -> Result<PvsReader> {
+fn open_pvs(path: &Path, scene: &Scene, args: &RenderArgs) -> Result<PvsReader> {
     let reader = PvsReader::open(path)?;
     let info = reader.info();
     if info.source_hash != scene.city.source_hash {
@@ -99,16 +99,21 @@ fn open_pvs(path: &PathBuf, scene: &Scene, args: &RenderArgs) -> Result<PvsReade
         .object_ids()
         .iter()
         .eq(scene.city.buildings.iter().map(|b| &b.id));
-    if !ids_match || reader.cell_triangles() != scene.cells.triangles.as_slice() {
+    if !ids_match
+        || info.eps != scene.eps
+        || reader.cell_triangles() != scene.cells.triangles.as_slice()
+    {
         return Err(Error::new(format!(
-            "{}: its {} cells and {} objects are not the {} cells and {} buildings prepared here; it was \
-             baked with --eps {} --max-cell-edge {} --margin {}: pass the same scene options \
+            "{}: its {} cells and {} objects (eps {}) are not the {} cells and {} buildings (eps {}) \
+             prepared here; it was baked with --eps {} --max-cell-edge {} --margin {}: pass the same scene options \
              (and the same --default-height, --region and --metric)",
             path.display(),
             reader.cell_count(),
             reader.object_ids().len(),
+            info.eps,
             scene.cells.triangles.len(),
             scene.city.buildings.len(),
+            scene.eps,
             info.eps,
             info.max_cell_edge,
             info.margin
@@ -150,7 +155,8 @@ fn chosen_cell(
     })
 }
 
-pub fn run(args: &RenderArgs) -> Result<i32> {
+/// Refuse option combinations that cannot work, before reading anything.
+fn check_args(args: &RenderArgs) -> Result<()> {
     if let Some(r) = args.radius
         && !(r > 0.0 && r.is_finite())
     {
@@ -158,11 +164,27 @@ pub fn run(args: &RenderArgs) -> Result<i32> {
             "--radius must be a positive number of metres, got {r}"
         )));
     }
-    let city = read_city(&args.city, &args.input.options())?;
-    let prepare_params = args.scene.params(&city.frame)?;
-    let scene = prepare(city, &prepare_params)?;
+    let has_cell = args.cell.is_some() || args.at.is_some();
+    if !has_cell && (args.layer.contains(&Layer::Cullmap) || args.radius.is_some()) {
+        return Err(Error::new(
+            "--layer cullmap and --radius need a chosen cell: add --cell N or --at X,Y".to_string(),
+        ));
+    }
+    Ok(())
+}
+
+/// A drawn picture and the chosen cell it shows, if any.
+pub struct Drawing {
+    pub rendered: Rendered,
+    pub focus: Option<Focus>,
+}
+
+/// Everything after preparation: open the .pvs file if any, choose the
+/// cell, gather its visible set, cull map and the PVS sizes as asked, draw.
+pub fn draw(args: &RenderArgs, scene: &Scene) -> Result<Drawing> {
+    check_args(args)?;
     let reader = match &args.pvs {
-        Some(path) => Some(open_pvs(path, &scene, args)?),
+        Some(path) => Some(open_pvs(path, scene, args)?),
         None => None,
     };
     let params = match &reader {
@@ -176,22 +198,16 @@ pub fn run(args: &RenderArgs) -> Result<i32> {
             ..VisibilityParams::for_eps(scene.eps)
         },
     };
-    let cell = chosen_cell(args, &scene, reader.as_ref())?;
+    let cell = chosen_cell(args, scene, reader.as_ref())?;
     let wants = |layer| args.layer.contains(&layer);
-    if cell.is_none() && (wants(Layer::Cullmap) || args.radius.is_some()) {
-        return Err(Error::new(
-            "--layer cullmap and --radius need a chosen cell: add --cell N or --at X,Y".to_string(),
-        ));
-    }
-
     let focus = match (cell, &reader) {
-        (Some(c), Some(r)) => Some(Focus::new(&scene, &params, c, r.visible(c)?)?),
-        (Some(c), None) => Some(Focus::compute(&scene, &params, c)?),
+        (Some(c), Some(r)) => Some(Focus::new(scene, &params, c, r.visible(c)?)?),
+        (Some(c), None) => Some(Focus::compute(scene, &params, c)?),
         (None, _) => None,
     };
     let cull_map = match cell {
         Some(c) if wants(Layer::Cullmap) => Some(cell_cull_map(
-            &scene,
+            scene,
             &params,
             c,
             args.radius.unwrap_or(DEFAULT_CULL_MAP_RADIUS),
@@ -210,23 +226,31 @@ pub fn run(args: &RenderArgs) -> Result<i32> {
                 "computing the PVS of all {} cells (pass --pvs FILE to read them from a bake)",
                 scene.cells.triangles.len()
             );
-            let result = compute_pvs(&scene, &params, &|_| {})?;
+            let result = compute_pvs(scene, &params, &|_| {})?;
             Some(result.visible.iter().map(Vec::len).collect())
         }
     };
     let view = match (cell, args.radius) {
-        (Some(c), Some(r)) => Some(view_around(&scene, c, r)),
+        (Some(c), Some(r)) => Some(view_around(scene, c, r)),
         _ => None,
     };
-    let picture = Picture {
-        scene: &scene,
+    let rendered = render(&Picture {
+        scene,
         focus: focus.as_ref(),
         cull_map: cull_map.as_ref(),
         pvs_sizes: pvs_sizes.as_deref(),
         view,
         width: args.size,
-    };
-    let rendered = render(&picture)?;
+    })?;
+    Ok(Drawing { rendered, focus })
+}
+
+pub fn run(args: &RenderArgs) -> Result<i32> {
+    check_args(args)?;
+    let city = read_city(&args.city, &args.input.options())?;
+    let prepare_params = args.scene.params(&city.frame)?;
+    let scene = prepare(city, &prepare_params)?;
+    let Drawing { rendered, focus } = draw(args, &scene)?;
     let png = rendered.png()?;
     crate::atomic::write_atomically(&args.output, &png)?;
     print!(
