@@ -87,9 +87,36 @@ pub fn fill_cells(
     }
 }
 
-/// Thin outlines of every cell in the view, stroked as one path so shared
-/// edges are not darkened twice.
-pub fn outline_cells(map: &mut Pixmap, vp: &Viewport, triangles: &[[DVec2; 3]], width: f32) {
+/// Opacity of the cell outlines: they fade out as cells shrink on screen
+/// (median edge from 15 px down to 3 px), so a whole city's thousands of
+/// cells do not bury the map in grey.
+pub fn cell_outline_alpha(vp: &Viewport, triangles: &[[DVec2; 3]]) -> f32 {
+    let mut edges: Vec<f64> = triangles
+        .iter()
+        .filter(|t| Rect::of_points(t.iter()).intersects(&vp.view))
+        .flat_map(|t| (0..3).map(move |k| t[k].distance(t[(k + 1) % 3])))
+        .collect();
+    if edges.is_empty() {
+        return 0.0;
+    }
+    edges.sort_by(f64::total_cmp);
+    let median_px = edges[edges.len() / 2] * vp.scale;
+    (((median_px - 3.0) / 12.0) as f32).clamp(0.0, 0.8)
+}
+
+/// Thin outlines of every cell in the view at opacity `alpha`, stroked as
+/// one path so shared edges are not darkened twice. Not anti-aliased: the
+/// hairlines look the same and the PNG is half the size.
+pub fn outline_cells(
+    map: &mut Pixmap,
+    vp: &Viewport,
+    triangles: &[[DVec2; 3]],
+    width: f32,
+    alpha: f32,
+) {
+    if alpha <= 0.0 {
+        return;
+    }
     let mut pb = PathBuilder::new();
     for t in triangles {
         if Rect::of_points(t.iter()).intersects(&vp.view) {
@@ -99,7 +126,7 @@ pub fn outline_cells(map: &mut Pixmap, vp: &Viewport, triangles: &[[DVec2; 3]], 
     if let Some(path) = pb.finish() {
         map.stroke_path(
             &path,
-            &paint(palette::CELL_OUTLINE, 0.8, true),
+            &paint(palette::CELL_OUTLINE, alpha, false),
             &stroke(width),
             Transform::identity(),
             None,
@@ -170,7 +197,8 @@ pub fn draw_cull_map(
     }
 }
 
-/// Fill the chosen cell and outline it.
+/// Fill the chosen cell and outline it; when it is small on screen, also
+/// ring it so it can be found on a whole-city map.
 pub fn draw_chosen_cell(map: &mut Pixmap, vp: &Viewport, triangle: &[DVec2; 3], line_width: f32) {
     let mut pb = PathBuilder::new();
     add_ring(&mut pb, vp, triangle);
@@ -189,6 +217,20 @@ pub fn draw_chosen_cell(map: &mut Pixmap, vp: &Viewport, triangle: &[DVec2; 3], 
             Transform::identity(),
             None,
         );
+    }
+    let ring_radius = 12.0 * line_width;
+    let size = Rect::of_points(triangle.iter());
+    if (size.width().max(size.height()) * vp.scale) < ring_radius as f64 {
+        let (x, y) = vp.to_screen((triangle[0] + triangle[1] + triangle[2]) / 3.0);
+        if let Some(circle) = PathBuilder::from_circle(x, y, ring_radius) {
+            map.stroke_path(
+                &circle,
+                &paint(palette::CHOSEN_CELL, 1.0, true),
+                &stroke(2.5 * line_width),
+                Transform::identity(),
+                None,
+            );
+        }
     }
 }
 

@@ -9,6 +9,7 @@
 //! [`palette`] (colours), [`font`] (a built-in stroke font), `map` (the
 //! map layers), `legend` (the panel).
 
+mod encode;
 pub mod focus;
 pub mod font;
 mod legend;
@@ -69,11 +70,10 @@ impl Rendered {
         Some(Rgb(c.red(), c.green(), c.blue()))
     }
 
-    /// The picture as PNG bytes.
+    /// The picture as PNG bytes: an 8-bit palette image; with more than 256
+    /// colours, each pixel takes the nearest of the 256 most frequent.
     pub fn png(&self) -> Result<Vec<u8>> {
-        self.pixmap
-            .encode_png()
-            .map_err(|e| Error::new(format!("cannot encode the picture as PNG: {e}")))
+        encode::encode_png(&self.pixmap)
     }
 }
 
@@ -268,7 +268,11 @@ pub fn render(picture: &Picture) -> Result<Rendered> {
     if let Some(image) = picture.cull_map {
         map::draw_cull_map(&mut map, &vp, image, max_height, palette::CULL_RAMP, line);
     }
-    map::outline_cells(&mut map, &vp, triangles, line);
+    let mut outline_alpha = map::cell_outline_alpha(&vp, triangles);
+    if picture.pvs_sizes.is_some() {
+        outline_alpha *= 0.5;
+    }
+    map::outline_cells(&mut map, &vp, triangles, line, outline_alpha);
     if let Some(f) = picture.focus {
         map::draw_chosen_cell(&mut map, &vp, &triangles[f.cell], 1.5 * line);
     }
