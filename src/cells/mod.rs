@@ -1,8 +1,13 @@
 //! View cells: the constrained Delaunay triangulation (spade) of free space,
 //! refined so that no cell edge exceeds a bound (METHOD.md 2).
 //!
-//! OWNER: geometry helper. The types and functions below are the agreed
-//! interface.
+//! The types and [`triangulate`] below are the interface; [`region`] makes
+//! the region and free space, [`mesh`] triangulates and refines it.
+
+mod mesh;
+mod region;
+
+pub use mesh::MAX_VERTICES;
 
 use glam::DVec2;
 
@@ -47,7 +52,23 @@ pub struct Cells {
 }
 
 /// Triangulate the free space of the region minus the blocks' ground
-/// footprints (level 0 of each block).
-pub fn triangulate(_blocks: &[Block], _params: &CellParams) -> Result<Cells> {
-    todo!("geometry helper")
+/// footprints (level 0 of each block). Courtyards are free space. Fails
+/// (never panics) when there is no region to take, the parameters make no
+/// sense, or nothing of the region is free.
+pub fn triangulate(blocks: &[Block], params: &CellParams) -> Result<Cells> {
+    if !(params.max_edge > 0.0 && params.max_edge.is_finite()) {
+        return Err(crate::Error::new(format!(
+            "cells: the maximum cell edge must be a positive number of metres, got {}",
+            params.max_edge
+        )));
+    }
+    let region = region::region(blocks, params)?;
+    let free = region::free_space(&region, blocks);
+    if free.is_empty() {
+        return Err(crate::Error::new(
+            "cells: no free space is left in the region once the footprints are removed",
+        ));
+    }
+    let triangles = mesh::triangulate_free_space(&free, params.max_edge)?;
+    Ok(Cells { triangles, region })
 }

@@ -2,8 +2,15 @@
 //! form a height field (METHOD.md 4), and conservative erosion of every level
 //! by eps. Owns everything between valid buildings and shrunk occluders.
 //!
-//! OWNER: geometry helper. The types and functions below are the agreed
-//! interface.
+//! The types and functions below are the interface; the work is done in
+//! [`merge`] (blocks and levels) and [`erode`] (conservative erosion), with
+//! [`convert`] translating to and from `geo` for the boolean operations.
+
+pub mod convert;
+mod erode;
+mod merge;
+
+pub use erode::{EROSION_SAFETY_MARGIN, MIN_PIECE_AREA};
 
 use crate::model::{Building, MultiPolygon};
 
@@ -39,33 +46,45 @@ pub struct Occluder {
     pub shape: MultiPolygon,
 }
 
-/// Group the buildings (only those with `occludes == true`) into blocks.
-pub fn merge_blocks(_buildings: &[Building]) -> Vec<Block> {
-    todo!("geometry helper")
+/// Group the buildings (only those with `occludes == true`) into blocks:
+/// buildings whose footprints touch or overlap (exactly, no tolerance) share
+/// a block. Blocks are ordered by their smallest member index.
+pub fn merge_blocks(buildings: &[Building]) -> Vec<Block> {
+    merge::merge_blocks(buildings)
 }
 
 /// Erode an area by `eps`, conservatively: the result lies inside the exact
 /// erosion (every point of it is inside `area` and at least `eps` from its
-/// boundary).
-pub fn erode(_area: &MultiPolygon, _eps: f64) -> MultiPolygon {
-    todo!("geometry helper")
+/// boundary). The distance actually used is `eps + EROSION_SAFETY_MARGIN`.
+/// The result may be empty.
+pub fn erode(area: &MultiPolygon, eps: f64) -> MultiPolygon {
+    erode::erode(area, eps)
 }
 
 /// Erode every level of every block. Empty results are dropped.
+/// Levels are eroded in parallel; the output order (by block, then level)
+/// does not depend on the thread count.
 pub fn shrink_blocks(blocks: &[Block], eps: f64) -> Vec<Occluder> {
-    let mut out = Vec::new();
-    for (b, block) in blocks.iter().enumerate() {
-        for (l, level) in block.levels.iter().enumerate() {
-            let shape = erode(&level.area, eps);
-            if !shape.is_empty() {
-                out.push(Occluder {
-                    block: b,
-                    level: l,
-                    height: level.height,
-                    shape,
-                });
-            }
-        }
-    }
-    out
+    use rayon::prelude::*;
+    let levels: Vec<(usize, usize, &Level)> = blocks
+        .iter()
+        .enumerate()
+        .flat_map(|(b, block)| {
+            block
+                .levels
+                .iter()
+                .enumerate()
+                .map(move |(l, level)| (b, l, level))
+        })
+        .collect();
+    levels
+        .par_iter()
+        .map(|&(b, l, level)| Occluder {
+            block: b,
+            level: l,
+            height: level.height,
+            shape: erode(&level.area, eps),
+        })
+        .filter(|o| !o.shape.is_empty())
+        .collect()
 }

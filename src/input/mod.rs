@@ -2,15 +2,24 @@
 //! projection to local metres, and repair of bad rings. Owns everything
 //! between a path on disk and a [`City`] of valid buildings.
 //!
-//! OWNER: input helper. The types below are the agreed interface; the
-//! implementation lives in submodules of this folder.
+//! The types below are the agreed interface; the work is done by the
+//! submodules: [`detect`] (which format), [`geojson`], [`osm`], [`cityjson`]
+//! (parsing), [`height`] (height tags), [`assemble`] (ids, frame, projection,
+//! report), [`repair`] (valid footprints) and [`projection`].
 
+pub mod assemble;
+pub mod cityjson;
+pub mod detect;
+pub mod geojson;
+pub mod height;
+pub mod osm;
 pub mod projection;
+pub mod repair;
 
 use std::path::Path;
 
 use crate::Result;
-use crate::model::Building;
+use crate::model::{self, Building};
 pub use projection::Frame;
 
 /// Default height in metres for a building with no height or level tags.
@@ -93,17 +102,85 @@ pub fn read_city(path: &Path, options: &InputOptions) -> Result<City> {
 }
 
 /// Read a city from bytes; `name` is used in messages (usually the path).
-pub fn read_city_bytes(_bytes: &[u8], name: &str, _options: &InputOptions) -> Result<City> {
-    Err(crate::Error::new(format!(
-        "{name}: reading is not implemented yet"
-    )))
+pub fn read_city_bytes(bytes: &[u8], name: &str, options: &InputOptions) -> Result<City> {
+    if let Err(why) = height::check_height(options.default_height) {
+        return Err(crate::Error::new(format!(
+            "{name}: --default-height: {why}"
+        )));
+    }
+    if bytes.iter().all(|b| b.is_ascii_whitespace()) {
+        return Err(crate::Error::new(format!("{name}: the file is empty")));
+    }
+    let content = detect::sniff(bytes);
+    let guess = options.format.or(match content {
+        detect::Content::Pbf => Some(Format::OsmPbf),
+        detect::Content::Json => None,
+        detect::Content::Unknown => detect::from_extension(name),
+    });
+    let parsed = match guess {
+        Some(Format::OsmPbf) => osm::parse(bytes, name, options)?,
+        _ if content == detect::Content::Unknown && guess.is_none() => {
+            return Err(crate::Error::new(format!(
+                "{name}: not a GeoJSON, CityJSON or OSM PBF file (the content is not JSON and has no PBF header; use --format to force a format)"
+            )));
+        }
+        _ => {
+            let root = detect::decode_json(bytes, name)?;
+            let format = guess
+                .or_else(|| detect::json_format(&root))
+                .unwrap_or(Format::Geojson);
+            match format {
+                Format::Cityjson => cityjson::parse(&root, name, options)?,
+                _ => geojson::parse(&root, name, options)?,
+            }
+        }
+    };
+    assemble::assemble(parsed, name, bytes, options)
 }
 
 /// Read a region of interest: a GeoJSON Polygon (or a Feature or
 /// FeatureCollection holding one) in the city's input frame, into local metres.
-pub fn read_region(path: &Path, _frame: &Frame) -> Result<crate::model::Polygon> {
-    Err(crate::Error::new(format!(
-        "{}: --region is not implemented yet",
-        path.display()
-    )))
+pub fn read_region(path: &Path, frame: &Frame) -> Result<crate::model::Polygon> {
+    let name = path.display().to_string();
+    let bytes =
+        std::fs::read(path).map_err(|e| crate::Error::new(format!("{name}: cannot read: {e}")))?;
+    let root = detect::decode_json(&bytes, &name)?;
+    let rings = geojson::parse_region(&root, &name)?;
+    if rings
+        .iter()
+        .flatten()
+        .any(|p| !(p[0].is_finite() && p[1].is_finite()))
+    {
+        return Err(crate::Error::new(format!(
+            "{name}: region: a coordinate is not finite"
+        )));
+    }
+    if let Frame::LonLat { .. } = frame
+        && let Some(p) = rings
+            .iter()
+            .flatten()
+            .find(|p| p[0].abs() > 180.0 || p[1].abs() > 90.0)
+    {
+        return Err(crate::Error::new(format!(
+            "{name}: region: coordinate ({}, {}) is not lon/lat, but the city is in lon/lat (the region must be in the city's coordinates)",
+            p[0], p[1]
+        )));
+    }
+    let local: Vec<model::Ring> = rings
+        .iter()
+        .map(|ring| ring.iter().map(|p| frame.to_local(p[0], p[1])).collect())
+        .collect();
+    let mut repaired = repair::repair_footprint(&vec![local], false);
+    if repaired.footprint.len() != 1 {
+        return Err(crate::Error::new(format!(
+            "{name}: region: the polygon is not usable ({} pieces after repair{})",
+            repaired.footprint.len(),
+            if repaired.notes.is_empty() {
+                String::new()
+            } else {
+                format!(": {}", repaired.notes.join("; "))
+            }
+        )));
+    }
+    Ok(repaired.footprint.remove(0))
 }

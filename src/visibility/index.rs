@@ -132,6 +132,50 @@ impl SceneIndex {
         }
     }
 
+    /// Side of an edge bucket in metres.
+    pub fn bucket_size(&self) -> f64 {
+        self.bucket_size
+    }
+
+    /// The largest Chebyshev ring (in buckets) around `v`'s bucket that
+    /// still touches the bucket grid.
+    pub fn max_bucket_ring(&self, v: DVec2) -> i64 {
+        let (nx, ny) = self.bucket_dims;
+        let q = ((v - self.bucket_origin) / self.bucket_size).floor();
+        let (x, y) = (q.x as i64, q.y as i64);
+        let dx = x.abs().max((x - (nx as i64 - 1)).abs());
+        let dy = y.abs().max((y - (ny as i64 - 1)).abs());
+        dx.max(dy)
+    }
+
+    /// Call `f` with every edge in the buckets at Chebyshev distance exactly
+    /// `ring` from the bucket containing `v` (an edge may be reported more
+    /// than once).
+    pub fn edges_in_ring(&self, v: DVec2, ring: i64, mut f: impl FnMut(u32)) {
+        let (nx, ny) = (self.bucket_dims.0 as i64, self.bucket_dims.1 as i64);
+        let q = ((v - self.bucket_origin) / self.bucket_size).floor();
+        let (cx, cy) = (q.x as i64, q.y as i64);
+        let mut visit = |x: i64, y: i64| {
+            if x >= 0 && y >= 0 && x < nx && y < ny {
+                for &e in &self.buckets[(y * nx + x) as usize] {
+                    f(e);
+                }
+            }
+        };
+        if ring == 0 {
+            visit(cx, cy);
+            return;
+        }
+        for x in cx - ring..=cx + ring {
+            visit(x, cy - ring);
+            visit(x, cy + ring);
+        }
+        for y in cy - ring + 1..cy + ring {
+            visit(cx - ring, y);
+            visit(cx + ring, y);
+        }
+    }
+
     /// Call `f` with the index of every edge whose bucket overlaps `rect`
     /// (an edge may be reported more than once).
     pub fn edges_near(&self, rect: &Rect, mut f: impl FnMut(u32)) {
@@ -160,22 +204,35 @@ fn bucket_coords(origin: DVec2, p: DVec2, nx: usize, ny: usize) -> (usize, usize
     (x, y)
 }
 
+/// Longest occluder edge piece: long walls are cut so that a short chain of
+/// pieces lies within a narrow band of distances from any eye, which keeps
+/// the horizon's distance ordering tight.
+const MAX_EDGE_PIECE: f64 = 6.0;
+
 fn collect_edges(occluders: &[Occluder]) -> Vec<OccluderEdge> {
     let mut edges = Vec::new();
     for occ in occluders {
         for polygon in &occ.shape {
             for ring in std::iter::once(&polygon.exterior).chain(polygon.holes.iter()) {
                 let start = edges.len() as u32;
-                let n = ring.len() as u32;
-                for i in 0..n {
-                    let a = ring[i as usize];
-                    let b = ring[((i + 1) % n) as usize];
-                    edges.push(OccluderEdge {
-                        a,
-                        b,
-                        height: occ.height,
-                        next: start + (i + 1) % n,
-                    });
+                for (i, &a) in ring.iter().enumerate() {
+                    let b = ring[(i + 1) % ring.len()];
+                    let pieces = (a.distance(b) / MAX_EDGE_PIECE).ceil().max(1.0) as usize;
+                    for k in 0..pieces {
+                        let p = if k == 0 { a } else { a.lerp(b, k as f64 / pieces as f64) };
+                        let q = if k + 1 == pieces { b } else { a.lerp(b, (k + 1) as f64 / pieces as f64) };
+                        let next = edges.len() as u32 + 1;
+                        edges.push(OccluderEdge {
+                            a: p,
+                            b: q,
+                            height: occ.height,
+                            next,
+                        });
+                    }
+                }
+                // Close the ring: the last piece continues with the first.
+                if let Some(last) = edges.last_mut() {
+                    last.next = start;
                 }
             }
         }

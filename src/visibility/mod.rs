@@ -27,7 +27,7 @@ use crate::prepare::Scene;
 use bitset::ObjectSet;
 use index::SceneIndex;
 use samples::MeshTopology;
-use solver::{NEAR_FIELD_RADII, Solver};
+use solver::{DEFAULT_NEAR_FIELD, Solver};
 
 /// Default eye height in metres (a pedestrian's eyes).
 pub const DEFAULT_EYE_HEIGHT: f64 = 1.7;
@@ -39,9 +39,9 @@ pub struct VisibilityParams {
     pub eye_height: f64,
     /// Cull-map pixel size k in metres; k * sqrt(2) / 2 <= eps.
     pub pixel: f64,
-    /// Largest near-field cull-map half-size in metres; objects that the
-    /// horizon cannot hide beyond it are counted visible.
-    pub max_near_field: f64,
+    /// Half-size in metres of the near-field cull map around each sample;
+    /// beyond it the distance-ordered horizon decides.
+    pub near_field: f64,
 }
 
 /// The largest pixel size allowed by eps: k * sqrt(2) / 2 <= eps, with a
@@ -74,7 +74,7 @@ impl VisibilityParams {
         VisibilityParams {
             eye_height: DEFAULT_EYE_HEIGHT,
             pixel: default_pixel(eps),
-            max_near_field: *NEAR_FIELD_RADII.last().unwrap(),
+            near_field: DEFAULT_NEAR_FIELD,
         }
     }
 }
@@ -137,7 +137,7 @@ pub fn compute_pvs(
     let visible: Vec<Vec<u32>> = (0..scene.cells.triangles.len())
         .into_par_iter()
         .map_init(
-            || Solver::new(&index, params.eye_height, params.max_near_field),
+            || Solver::new(&index, params.eye_height, params.near_field),
             |solver, cell| {
                 let mut set = ObjectSet::new(n_objects);
                 let vs = topo.cell_vertices[cell].iter().map(|&v| v as usize);
@@ -199,7 +199,7 @@ pub fn cell_cull_map(
     radius: f64,
 ) -> CullMapImage {
     let index = SceneIndex::build(&scene.city.buildings, &scene.occluders, params.pixel);
-    let mut solver = Solver::new(&index, params.eye_height, params.max_near_field);
+    let mut solver = Solver::new(&index, params.eye_height, params.near_field);
     let t = scene.cells.triangles[cell];
     let rect = crate::model::Rect::of_points(t.iter()).grown(radius);
     let (i0, j0) = index.grid.pixel_of(rect.min);

@@ -1,7 +1,17 @@
 //! The per-sample visibility solver: for one sample V, find every object
-//! that the shrunk occluders do not hide from V, growing the near-field
-//! cull map only while something beyond it may still be visible
-//! (METHOD.md 5 and 6).
+//! that the shrunk occluders do not hide from V (METHOD.md 5 and 6).
+//!
+//! Near V, a cull map (a window of the global pixel grid) decides objects
+//! pixel by pixel. Everything else is decided by a horizon that grows with
+//! distance: objects and pyramid nodes are visited nearest first, and before
+//! one at distance r is tested, every occluder chain whose farthest vertex is
+//! nearer than r is added to the horizon. A chain nearer than all of an
+//! object's points stands in front of it on every ray that meets both, so
+//! the test is valid without any window; whole districts behind a street
+//! wall are rejected with one test of their pyramid node.
+
+use std::cmp::Reverse;
+use std::collections::BinaryHeap;
 
 use glam::DVec2;
 
@@ -11,93 +21,190 @@ use super::horizon::Horizon;
 use super::index::SceneIndex;
 use crate::model::{Rect, distance_to_segment};
 
-/// The near-field half-sizes tried, in metres, smallest first. Objects still
-/// unresolved at the largest are counted visible.
-pub const NEAR_FIELD_RADII: [f64; 5] = [40.0, 80.0, 160.0, 320.0, 640.0];
+/// Default half-size in metres of the near-field cull map.
+pub const DEFAULT_NEAR_FIELD: f64 = 48.0;
+
+/// Edges in each occluder chain fed to the horizon: two, so that the bins
+/// around their shared vertex are covered.
+const CHAIN_EDGES: usize = 2;
+
+/// Something waiting in the nearest-first queue.
+#[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+enum Item {
+    Node(u32),
+    Object(u32),
+}
+
+/// A non-negative distance as an orderable key (the bits of a non-negative
+/// f64 order like the number).
+fn key(d: f64) -> u64 {
+    d.max(0.0).to_bits()
+}
 
 /// Reusable per-thread state for solving samples.
 pub struct Solver<'a> {
     index: &'a SceneIndex,
     eye: f64,
+    near_field: f64,
     pub window: CullWindow,
     horizon: Horizon,
     edge_stamp: Vec<u32>,
     stamp: u32,
     gathered: Vec<(f64, u32)>,
-    unresolved: Vec<u32>,
-    stack: Vec<u32>,
-    /// Largest near-field radius to try.
-    max_radius: f64,
-}
-
-/// Where an object stands after one window.
-enum Verdict {
-    Visible,
-    Hidden,
-    Unresolved,
+    queue: BinaryHeap<Reverse<(u64, Item)>>,
+    chains: BinaryHeap<Reverse<(u64, u32)>>,
+    /// Edge buckets already swept into `chains`, as a Chebyshev ring radius.
+    swept_rings: i64,
 }
 
 impl<'a> Solver<'a> {
-    pub fn new(index: &'a SceneIndex, eye: f64, max_radius: f64) -> Self {
+    pub fn new(index: &'a SceneIndex, eye: f64, near_field: f64) -> Self {
         Solver {
             index,
             eye,
+            near_field,
             window: CullWindow::new(index.grid),
             horizon: Horizon::default(),
             edge_stamp: vec![0; index.edges.len()],
             stamp: 0,
             gathered: Vec::new(),
-            unresolved: Vec::new(),
-            stack: Vec::new(),
-            max_radius,
+            queue: BinaryHeap::new(),
+            chains: BinaryHeap::new(),
+            swept_rings: -1,
         }
     }
 
-    /// Add to `visible` every object not hidden from the sample at `v`.
-    pub fn solve(&mut self, v: DVec2, visible: &mut ObjectSet) {
-        let mut first = true;
-        let mut pending: Vec<u32> = Vec::new();
-        for &radius in NEAR_FIELD_RADII.iter() {
-            let last = radius >= self.max_radius || radius == *NEAR_FIELD_RADII.last().unwrap();
-            self.window.reset_around(v, radius);
-            self.rasterise_occluders(v);
-            self.unresolved.clear();
-            if first {
-                self.traverse(v, visible);
-                first = false;
-            } else {
-                for &o in &pending {
-                    if !visible.contains(o as usize) {
-                        self.classify(v, o, visible);
-                    }
-                }
-            }
-            if self.unresolved.is_empty() {
-                return;
-            }
-            if last {
-                for &o in &self.unresolved {
-                    visible.insert(o as usize);
-                }
-                return;
-            }
-            pending.clear();
-            pending.extend_from_slice(&self.unresolved);
-        }
-    }
-
-    /// Fill the window with U_V and the horizon from the occluder edges that
-    /// reach into the window, nearest first, dropping edges already hidden.
-    pub fn rasterise_occluders(&mut self, v: DVec2) {
-        let index = self.index;
-        let rect = self.window.rect();
+    fn next_stamp(&mut self) -> u32 {
         self.stamp = self.stamp.wrapping_add(1);
         if self.stamp == 0 {
             self.edge_stamp.fill(0);
             self.stamp = 1;
         }
+        self.stamp
+    }
+
+    /// Add to `visible` every object not hidden from the sample at `v`.
+    pub fn solve(&mut self, v: DVec2, visible: &mut ObjectSet) {
+        self.window.reset_around(v, self.near_field);
+        self.rasterise_occluders(v);
+        self.horizon.clear();
+        self.chains.clear();
+        self.swept_rings = -1;
+        self.next_stamp();
+        self.queue.clear();
+        let Some(root) = self.index.root else { return };
+        let index = self.index;
+        self.queue.push(Reverse((key(rect_distance(v, &index.pyramid[root as usize].rect)), Item::Node(root))));
+        let window = self.window.rect();
+        while let Some(Reverse((k, item))) = self.queue.pop() {
+            let r = f64::from_bits(k);
+            self.grow_horizon(v, r);
+            match item {
+                Item::Node(n) => {
+                    let node = &index.pyramid[n as usize];
+                    if self.horizon.hides_rect(v, self.eye, &node.rect, node.max_height) {
+                        continue;
+                    }
+                    for &c in &node.children {
+                        let d = rect_distance(v, &index.pyramid[c as usize].rect);
+                        self.queue.push(Reverse((key(d), Item::Node(c))));
+                    }
+                    for &o in &node.objects {
+                        if !visible.contains(o as usize) {
+                            let d = rect_distance(v, &index.objects[o as usize].rect);
+                            self.queue.push(Reverse((key(d), Item::Object(o))));
+                        }
+                    }
+                }
+                Item::Object(o) => {
+                    if !visible.contains(o as usize) && !self.object_hidden(v, o, &window) {
+                        visible.insert(o as usize);
+                    }
+                }
+            }
+        }
+    }
+
+    /// True when the object is hidden: its pixels in the window by the cull
+    /// map, and any part outside the window by the horizon.
+    fn object_hidden(&self, v: DVec2, o: u32, window: &Rect) -> bool {
+        let object = &self.index.objects[o as usize];
+        let mut outside = false;
+        if object.rect.intersects(window) && !self.window.spans_hidden(&object.spans, object.height, &mut outside) {
+            return false;
+        }
+        contains(window, &object.rect) || self.horizon.hides_rect(v, self.eye, &object.rect, object.height)
+    }
+
+    /// Add to the horizon every chain whose farthest vertex is nearer than `r`.
+    fn grow_horizon(&mut self, v: DVec2, r: f64) {
+        let index = self.index;
+        // Sweep edge buckets out to distance r so every chain that could be
+        // nearer than r is queued.
+        let rings_needed = (r / index.bucket_size()).ceil() as i64 + 1;
+        while self.swept_rings < rings_needed && self.swept_rings < index.max_bucket_ring(v) {
+            self.swept_rings += 1;
+            let ring = self.swept_rings;
+            let (stamp, eye) = (self.stamp, self.eye);
+            let (edge_stamp, chains) = (&mut self.edge_stamp, &mut self.chains);
+            index.edges_in_ring(v, ring, |e| {
+                if edge_stamp[e as usize] == stamp {
+                    return;
+                }
+                edge_stamp[e as usize] = stamp;
+                let edge = &index.edges[e as usize];
+                if edge.height <= eye {
+                    return;
+                }
+                let mut d_max = edge.a.distance(v);
+                let mut faces_eye = false;
+                let mut cur = e;
+                for _ in 0..CHAIN_EDGES {
+                    let c = &index.edges[cur as usize];
+                    d_max = d_max.max(c.b.distance(v));
+                    // The solid is on the edge's left: the eye sees the edge's
+                    // outside when it is on its right.
+                    faces_eye |= (c.b - c.a).perp_dot(v - c.a) < 0.0;
+                    cur = c.next;
+                }
+                // Every ray that crosses a ring enters it through an edge
+                // facing the eye, so chains of back faces add nothing the
+                // front faces don't already give (any subset of chains gives
+                // a valid, if lower, horizon).
+                if faces_eye {
+                    chains.push(Reverse((key(d_max), e)));
+                }
+            });
+        }
+        while let Some(&Reverse((k, e))) = self.chains.peek() {
+            if f64::from_bits(k) >= r {
+                break;
+            }
+            self.chains.pop();
+            let edge = &index.edges[e as usize];
+            let mut cur = e;
+            let mut count = 0;
+            let chain = std::iter::once(edge.a).chain(std::iter::from_fn(|| {
+                if count >= CHAIN_EDGES {
+                    return None;
+                }
+                count += 1;
+                let c = &index.edges[cur as usize];
+                cur = c.next;
+                Some(c.b)
+            }));
+            self.horizon.add_chain(v, self.eye, edge.height, chain);
+        }
+    }
+
+    /// Fill the window with U_V from the occluder edges that reach into it,
+    /// nearest first, dropping edges whose top is already hidden.
+    pub fn rasterise_occluders(&mut self, v: DVec2) {
+        let index = self.index;
+        let rect = self.window.rect();
+        let stamp = self.next_stamp();
         self.gathered.clear();
-        let (stamp, edge_stamp, gathered) = (self.stamp, &mut self.edge_stamp, &mut self.gathered);
+        let (edge_stamp, gathered) = (&mut self.edge_stamp, &mut self.gathered);
         index.edges_near(&rect, |e| {
             if edge_stamp[e as usize] != stamp {
                 edge_stamp[e as usize] = stamp;
@@ -105,101 +212,25 @@ impl<'a> Solver<'a> {
                 gathered.push((distance_to_segment(v, edge.a, edge.b), e));
             }
         });
-        self.gathered
-            .sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
-        self.horizon.clear();
-        let inside = |p: DVec2| {
-            p.x >= rect.min.x && p.x <= rect.max.x && p.y >= rect.min.y && p.y <= rect.max.y
-        };
+        self.gathered.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
         for &(_, e) in &self.gathered {
             let edge = &index.edges[e as usize];
             // The solid is on the edge's left; the eye faces the edge's outside
             // when it is on its right.
             let eye_outside = (edge.b - edge.a).perp_dot(v - edge.a) < 0.0;
-            let silhouette = if edge.height > self.eye {
-                eye_outside
-            } else {
-                !eye_outside
-            };
+            let silhouette = if edge.height > self.eye { eye_outside } else { !eye_outside };
             if silhouette && !self.window.segment_hidden(edge.a, edge.b, edge.height) {
-                self.window
-                    .rasterise_shadow(v, self.eye, edge.a, edge.b, edge.height);
-            }
-            if edge.height > self.eye && inside(edge.a) {
-                // A chain along the ring from this edge, while inside the window.
-                let mut chain_end = e;
-                let chain = std::iter::once(edge.a).chain(std::iter::from_fn(|| {
-                    let current = &index.edges[chain_end as usize];
-                    if !inside(current.b) {
-                        return None;
-                    }
-                    chain_end = current.next;
-                    Some(current.b)
-                }));
-                self.horizon.add_chain(v, self.eye, edge.height, chain);
+                self.window.rasterise_shadow(v, self.eye, edge.a, edge.b, edge.height);
             }
         }
-    }
-
-    fn traverse(&mut self, v: DVec2, visible: &mut ObjectSet) {
-        let Some(root) = self.index.root else { return };
-        let index = self.index;
-        let window = self.window.rect();
-        self.stack.clear();
-        self.stack.push(root);
-        while let Some(n) = self.stack.pop() {
-            let node = &index.pyramid[n as usize];
-            if !node.rect.intersects(&window)
-                && self
-                    .horizon
-                    .hides_rect(v, self.eye, &node.rect, node.max_height)
-            {
-                continue;
-            }
-            self.stack.extend(node.children.iter().rev());
-            for &o in &node.objects {
-                if !visible.contains(o as usize) {
-                    self.classify(v, o, visible);
-                }
-            }
-        }
-    }
-
-    fn classify(&mut self, v: DVec2, o: u32, visible: &mut ObjectSet) {
-        match self.verdict(v, o) {
-            Verdict::Visible => visible.insert(o as usize),
-            Verdict::Hidden => {}
-            Verdict::Unresolved => self.unresolved.push(o),
-        }
-    }
-
-    fn verdict(&self, v: DVec2, o: u32) -> Verdict {
-        let object = &self.index.objects[o as usize];
-        let window = self.window.rect();
-        let mut outside = false;
-        // Pixels outside the window are the horizon's business below.
-        if object.rect.intersects(&window)
-            && !self
-                .window
-                .spans_hidden(&object.spans, object.height, &mut outside)
-        {
-            return Verdict::Visible;
-        }
-        if !contains(&window, &object.rect) {
-            if !self
-                .horizon
-                .hides_rect(v, self.eye, &object.rect, object.height)
-            {
-                return Verdict::Unresolved;
-            }
-        }
-        Verdict::Hidden
     }
 }
 
+/// Distance from `v` to the nearest point of `rect` (0 inside).
+fn rect_distance(v: DVec2, rect: &Rect) -> f64 {
+    v.clamp(rect.min, rect.max).distance(v)
+}
+
 fn contains(outer: &Rect, inner: &Rect) -> bool {
-    inner.min.x >= outer.min.x
-        && inner.min.y >= outer.min.y
-        && inner.max.x <= outer.max.x
-        && inner.max.y <= outer.max.y
+    inner.min.x >= outer.min.x && inner.min.y >= outer.min.y && inner.max.x <= outer.max.x && inner.max.y <= outer.max.y
 }

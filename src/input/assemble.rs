@@ -1,0 +1,262 @@
+//! Turning parsed features into a [`City`]: unique ids, the choice of frame
+//! (lon/lat range check, origin at the buildings' bounding-box centre),
+//! projection to local metres, repair, the report and `--strict`.
+
+use std::collections::BTreeMap;
+
+use glam::DVec2;
+use rayon::prelude::*;
+use sha2::{Digest, Sha256};
+
+use super::repair::{RawFootprint, repair_footprint};
+use super::{City, Frame, InputOptions, InputReport, Warning};
+use crate::model::{Building, Rect};
+use crate::{Error, Result};
+
+/// A position as written in the file: lon/lat degrees or metres.
+pub type RawPoint = [f64; 2];
+
+/// How a file's coordinates are to be read.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Coordinates {
+    /// RFC 7946 lon/lat degrees.
+    LonLat,
+    /// Metres, in the named CRS if any.
+    Metric { crs: Option<String> },
+}
+
+/// One feature that holds a building, as parsed, before projection.
+#[derive(Clone, Debug)]
+pub struct RawBuilding {
+    /// Position of the feature in the file (0-based), for messages.
+    pub index: usize,
+    /// The building's id.
+    pub id: String,
+    /// Whether the id was written in the file (else it is the index).
+    pub id_given: bool,
+    /// Polygons: exterior ring first, then holes; rings open, in file coordinates.
+    pub polygons: Vec<Vec<Vec<RawPoint>>>,
+    pub height: f64,
+    pub occludes: bool,
+    /// Repairs already made while parsing (e.g. rings that were not closed).
+    pub notes: Vec<String>,
+}
+
+/// What a format reader hands over.
+#[derive(Clone, Debug)]
+pub struct Parsed {
+    pub coordinates: Coordinates,
+    pub buildings: Vec<RawBuilding>,
+    /// Features skipped while parsing (not polygons, broken relations, ...).
+    pub skipped: Vec<Warning>,
+    /// Features looked at.
+    pub features_read: usize,
+    /// Whether the format prescribes ring winding (reversed rings are then
+    /// reported as repairs).
+    pub winding_matters: bool,
+}
+
+/// How a feature is named in messages: `feature "b7" (index 7)`.
+pub fn feature_label(id: Option<&str>, index: usize) -> String {
+    match id {
+        Some(id) => format!("feature \"{id}\" (index {index})"),
+        None => format!("feature #{index} (no id)"),
+    }
+}
+
+/// A warning's feature name for messages: ids quoted, `#<index>` as is.
+fn quoted(feature: &str) -> String {
+    if feature.starts_with('#') {
+        feature.to_string()
+    } else {
+        format!("\"{feature}\"")
+    }
+}
+
+/// An error about one feature of file `name`.
+pub fn feature_error(name: &str, id: Option<&str>, index: usize, what: &str) -> Error {
+    Error::new(format!("{name}: {}: {what}", feature_label(id, index)))
+}
+
+impl RawBuilding {
+    fn label_id(&self) -> Option<&str> {
+        self.id_given.then_some(self.id.as_str())
+    }
+
+    fn warning_name(&self) -> String {
+        if self.id_given {
+            self.id.clone()
+        } else {
+            format!("#{}", self.index)
+        }
+    }
+
+    fn points(&self) -> impl Iterator<Item = &RawPoint> {
+        self.polygons.iter().flatten().flatten()
+    }
+}
+
+/// Ids must be unique: the first clash is an error naming both features.
+fn check_unique_ids(buildings: &[RawBuilding], name: &str) -> Result<()> {
+    let mut seen: BTreeMap<&str, &RawBuilding> = BTreeMap::new();
+    for b in buildings {
+        if let Some(first) = seen.insert(&b.id, b) {
+            return Err(Error::new(format!(
+                "{name}: duplicate id \"{}\": {} and {} (ids must be unique)",
+                b.id,
+                feature_label(first.label_id(), first.index),
+                feature_label(b.label_id(), b.index),
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Every coordinate must be finite, and within lon/lat range for lon/lat input.
+fn check_coordinates(parsed: &Parsed, name: &str) -> Result<()> {
+    for b in &parsed.buildings {
+        for p in b.points() {
+            if !(p[0].is_finite() && p[1].is_finite()) {
+                return Err(feature_error(
+                    name,
+                    b.label_id(),
+                    b.index,
+                    &format!("coordinate ({}, {}) is not a finite number", p[0], p[1]),
+                ));
+            }
+            if parsed.coordinates == Coordinates::LonLat
+                && !(p[0].abs() <= 180.0 && p[1].abs() <= 90.0)
+            {
+                return Err(feature_error(
+                    name,
+                    b.label_id(),
+                    b.index,
+                    &format!(
+                        "coordinate ({}, {}) is not lon/lat (outside [-180, 180] x [-90, 90]); if the file is in metres, use --metric",
+                        p[0], p[1]
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The frame centred on the buildings' bounding box.
+fn choose_frame(parsed: &Parsed) -> Frame {
+    let points: Vec<DVec2> = parsed
+        .buildings
+        .iter()
+        .flat_map(|b| b.points())
+        .map(|p| DVec2::new(p[0], p[1]))
+        .collect();
+    let bounds = Rect::of_points(&points);
+    let centre = (bounds.min + bounds.max) * 0.5;
+    match &parsed.coordinates {
+        Coordinates::LonLat => Frame::LonLat {
+            lon0: centre.x,
+            lat0: centre.y,
+        },
+        Coordinates::Metric { crs } => Frame::Metric {
+            origin: centre.round(),
+            crs: crs.clone(),
+        },
+    }
+}
+
+/// Project a building's rings into local metres.
+fn project(b: &RawBuilding, frame: &Frame) -> RawFootprint {
+    b.polygons
+        .iter()
+        .map(|rings| {
+            rings
+                .iter()
+                .map(|ring| ring.iter().map(|p| frame.to_local(p[0], p[1])).collect())
+                .collect()
+        })
+        .collect()
+}
+
+/// Build the city from parsed features. `bytes` are the file's bytes (hashed).
+pub fn assemble(parsed: Parsed, name: &str, bytes: &[u8], options: &InputOptions) -> Result<City> {
+    if parsed.buildings.is_empty() {
+        let why = match parsed.skipped.first() {
+            Some(w) => format!(
+                " (first skipped: feature {}: {})",
+                quoted(&w.feature),
+                w.message
+            ),
+            None => String::new(),
+        };
+        return Err(Error::new(format!(
+            "{name}: no buildings found ({} features read, {} skipped){why}",
+            parsed.features_read,
+            parsed.skipped.len()
+        )));
+    }
+    check_unique_ids(&parsed.buildings, name)?;
+    check_coordinates(&parsed, name)?;
+    let frame = choose_frame(&parsed);
+
+    let repaired: Vec<_> = parsed
+        .buildings
+        .par_iter()
+        .map(|b| repair_footprint(&project(b, &frame), parsed.winding_matters))
+        .collect();
+
+    let mut report = InputReport {
+        features_read: parsed.features_read,
+        skipped: parsed.skipped,
+        ..InputReport::default()
+    };
+    let mut buildings = Vec::with_capacity(repaired.len());
+    for (raw, fixed) in parsed.buildings.into_iter().zip(repaired) {
+        let mut notes = raw.notes.clone();
+        notes.extend(fixed.notes);
+        if fixed.footprint.is_empty() {
+            notes.push("no usable polygon left; skipped".into());
+            report.skipped.push(Warning {
+                feature: raw.warning_name(),
+                message: notes.join("; "),
+            });
+            continue;
+        }
+        if !notes.is_empty() {
+            report.repaired.push(Warning {
+                feature: raw.warning_name(),
+                message: notes.join("; "),
+            });
+        }
+        buildings.push(Building {
+            id: raw.id,
+            footprint: fixed.footprint,
+            height: raw.height,
+            occludes: raw.occludes,
+        });
+    }
+    report.buildings = buildings.len();
+    if options.strict {
+        if let Some(w) = report.skipped.first().or(report.repaired.first()) {
+            let more = report.skipped.len() + report.repaired.len() - 1;
+            return Err(Error::new(format!(
+                "{name}: feature {}: {} (--strict turns this warning into an error; {more} more)",
+                quoted(&w.feature),
+                w.message
+            )));
+        }
+    }
+    if buildings.is_empty() {
+        return Err(Error::new(format!(
+            "{name}: no usable buildings: all {} were skipped (first: {}: {})",
+            report.skipped.len(),
+            report.skipped[0].feature,
+            report.skipped[0].message
+        )));
+    }
+    Ok(City {
+        buildings,
+        frame,
+        source_hash: Sha256::digest(bytes).into(),
+        report,
+    })
+}

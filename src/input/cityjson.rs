@@ -1,0 +1,273 @@
+//! CityJSON 1.1 / 2.0 (and 1.0) files: `Building` and `BuildingPart` city
+//! objects. The footprint is the GroundSurface semantic surface(s) of the
+//! object's highest-LoD geometry, else its surfaces lying flat at the lowest
+//! height; the height is the highest vertex minus the lowest. The file's
+//! `transform` is applied; coordinates are metres in the CRS named by
+//! `metadata.referenceSystem`.
+
+use serde_json::{Map, Value};
+
+use super::assemble::{Coordinates, Parsed, RawBuilding, RawPoint, feature_error};
+use super::height::check_height;
+use super::{InputOptions, Warning};
+use crate::{Error, Result};
+
+/// Surfaces within this height (metres) of the lowest vertex lie on the ground.
+const GROUND_TOLERANCE: f64 = 0.01;
+
+/// A surface: rings of 3D points, the first the outer ring.
+type Surface = Vec<Vec<[f64; 3]>>;
+
+/// The file's vertices with the transform applied.
+fn vertices(root: &Map<String, Value>, name: &str) -> Result<Vec<[f64; 3]>> {
+    let (scale, translate) = match root.get("transform") {
+        Some(t) => {
+            let triple = |key: &str| -> Result<[f64; 3]> {
+                let v = t
+                    .get(key)
+                    .and_then(Value::as_array)
+                    .filter(|a| a.len() == 3);
+                let v = v.ok_or_else(|| {
+                    Error::new(format!(
+                        "{name}: transform.{key} is not an array of 3 numbers"
+                    ))
+                })?;
+                let mut out = [0.0; 3];
+                for (o, x) in out.iter_mut().zip(v) {
+                    *o = x.as_f64().ok_or_else(|| {
+                        Error::new(format!("{name}: transform.{key} holds a non-number"))
+                    })?;
+                }
+                Ok(out)
+            };
+            (triple("scale")?, triple("translate")?)
+        }
+        None => ([1.0; 3], [0.0; 3]),
+    };
+    let list = root
+        .get("vertices")
+        .and_then(Value::as_array)
+        .ok_or_else(|| Error::new(format!("{name}: CityJSON has no \"vertices\" array")))?;
+    list.iter()
+        .enumerate()
+        .map(|(i, v)| {
+            let xyz = v
+                .as_array()
+                .filter(|a| a.len() == 3)
+                .and_then(|a| Some([a[0].as_f64()?, a[1].as_f64()?, a[2].as_f64()?]))
+                .ok_or_else(|| {
+                    Error::new(format!("{name}: vertex {i} is not an array of 3 numbers"))
+                })?;
+            Ok([
+                xyz[0] * scale[0] + translate[0],
+                xyz[1] * scale[1] + translate[1],
+                xyz[2] * scale[2] + translate[2],
+            ])
+        })
+        .collect()
+}
+
+/// The LoD of a geometry as a number ("2.2" -> 2.2); unknown -> 0.
+fn lod(geometry: &Value) -> f64 {
+    match geometry.get("lod") {
+        Some(Value::String(s)) => s.parse().unwrap_or(0.0),
+        Some(Value::Number(n)) => n.as_f64().unwrap_or(0.0),
+        _ => 0.0,
+    }
+}
+
+/// Every surface of a geometry with its semantic type (if any).
+fn surfaces(
+    geometry: &Value,
+    verts: &[[f64; 3]],
+) -> std::result::Result<Vec<(Surface, Option<String>)>, String> {
+    let kind = geometry.get("type").and_then(Value::as_str).unwrap_or("");
+    // Depth of nesting above the surface level: MultiSurface 0, Solid 1, MultiSolid 2.
+    let depth = match kind {
+        "MultiSurface" | "CompositeSurface" => 0,
+        "Solid" => 1,
+        "MultiSolid" | "CompositeSolid" => 2,
+        other => return Err(format!("geometry type \"{other}\" has no surfaces")),
+    };
+    let boundaries = geometry
+        .get("boundaries")
+        .ok_or("geometry has no boundaries")?;
+    let semantic_types: Vec<Option<String>> = geometry
+        .get("semantics")
+        .and_then(|s| s.get("surfaces"))
+        .and_then(Value::as_array)
+        .map(|list| {
+            list.iter()
+                .map(|s| s.get("type").and_then(Value::as_str).map(str::to_string))
+                .collect()
+        })
+        .unwrap_or_default();
+    let values = geometry.get("semantics").and_then(|s| s.get("values"));
+    let mut out = Vec::new();
+    collect_surfaces(boundaries, values, depth, verts, &semantic_types, &mut out)?;
+    Ok(out)
+}
+
+fn collect_surfaces(
+    boundaries: &Value,
+    values: Option<&Value>,
+    depth: usize,
+    verts: &[[f64; 3]],
+    semantic_types: &[Option<String>],
+    out: &mut Vec<(Surface, Option<String>)>,
+) -> std::result::Result<(), String> {
+    let list = boundaries.as_array().ok_or("boundaries are not arrays")?;
+    for (i, item) in list.iter().enumerate() {
+        let value = values.and_then(|v| v.get(i));
+        if depth > 0 {
+            collect_surfaces(item, value, depth - 1, verts, semantic_types, out)?;
+            continue;
+        }
+        let rings = item
+            .as_array()
+            .ok_or("a surface is not an array of rings")?;
+        let surface = rings
+            .iter()
+            .map(|ring| {
+                ring.as_array()
+                    .ok_or("a ring is not an array of vertex indices")?
+                    .iter()
+                    .map(|index| {
+                        index
+                            .as_u64()
+                            .and_then(|k| verts.get(k as usize))
+                            .copied()
+                            .ok_or_else(|| format!("vertex index {index} is out of range"))
+                    })
+                    .collect::<std::result::Result<Vec<_>, String>>()
+            })
+            .collect::<std::result::Result<Surface, String>>()?;
+        let semantic = value
+            .and_then(Value::as_u64)
+            .and_then(|k| semantic_types.get(k as usize).cloned().flatten());
+        out.push((surface, semantic));
+    }
+    Ok(())
+}
+
+/// Footprint polygons (rings open, 2D) and height of one geometry.
+fn footprint_and_height(
+    geometry: &Value,
+    verts: &[[f64; 3]],
+) -> std::result::Result<(Vec<Vec<Vec<RawPoint>>>, f64), String> {
+    let surfaces = surfaces(geometry, verts)?;
+    let zs = surfaces
+        .iter()
+        .flat_map(|(s, _)| s.iter().flatten().map(|p| p[2]));
+    let (low, high) = zs.fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), z| {
+        (l.min(z), h.max(z))
+    });
+    if !low.is_finite() {
+        return Err("the geometry has no vertices".into());
+    }
+    let ground: Vec<&Surface> = surfaces
+        .iter()
+        .filter(|(_, t)| t.as_deref() == Some("GroundSurface"))
+        .map(|(s, _)| s)
+        .collect();
+    let ground = if ground.is_empty() {
+        surfaces
+            .iter()
+            .map(|(s, _)| s)
+            .filter(|s| s.iter().flatten().all(|p| p[2] <= low + GROUND_TOLERANCE))
+            .collect()
+    } else {
+        ground
+    };
+    if ground.is_empty() {
+        return Err("no GroundSurface and no surface lying at the lowest height".into());
+    }
+    let polygons = ground
+        .iter()
+        .map(|surface| {
+            surface
+                .iter()
+                .map(|ring| {
+                    let mut points: Vec<RawPoint> = ring.iter().map(|p| [p[0], p[1]]).collect();
+                    if points.len() > 1 && points.first() == points.last() {
+                        points.pop();
+                    }
+                    points
+                })
+                .collect()
+        })
+        .collect();
+    Ok((polygons, high - low))
+}
+
+/// Parse a CityJSON document into buildings.
+pub fn parse(root: &Value, name: &str, _options: &InputOptions) -> Result<Parsed> {
+    let root = root
+        .as_object()
+        .ok_or_else(|| Error::new(format!("{name}: CityJSON must be a JSON object")))?;
+    let version = root
+        .get("version")
+        .and_then(Value::as_str)
+        .unwrap_or("(none)");
+    if !["1.0", "1.1", "2.0"].iter().any(|v| version.starts_with(v)) {
+        return Err(Error::new(format!(
+            "{name}: CityJSON version \"{version}\" is not supported (1.1 and 2.0 are)"
+        )));
+    }
+    let verts = vertices(root, name)?;
+    let objects = root
+        .get("CityObjects")
+        .and_then(Value::as_object)
+        .ok_or_else(|| Error::new(format!("{name}: CityJSON has no \"CityObjects\" object")))?;
+    let crs = root
+        .get("metadata")
+        .and_then(|m| m.get("referenceSystem"))
+        .and_then(Value::as_str)
+        .map(str::to_string);
+    let mut parsed = Parsed {
+        coordinates: Coordinates::Metric { crs },
+        buildings: Vec::new(),
+        skipped: Vec::new(),
+        features_read: 0,
+        winding_matters: false,
+    };
+    for (index, (id, object)) in objects.iter().enumerate() {
+        let kind = object.get("type").and_then(Value::as_str).unwrap_or("");
+        if kind != "Building" && kind != "BuildingPart" {
+            continue;
+        }
+        parsed.features_read += 1;
+        let geometries = object.get("geometry").and_then(Value::as_array);
+        let best = geometries
+            .into_iter()
+            .flatten()
+            .filter(|g| g.get("type").and_then(Value::as_str) != Some("GeometryInstance"))
+            .max_by(|a, b| lod(a).total_cmp(&lod(b)));
+        let Some(geometry) = best else {
+            let has_parts = object
+                .get("children")
+                .and_then(Value::as_array)
+                .is_some_and(|c| !c.is_empty());
+            if !has_parts {
+                parsed.skipped.push(Warning {
+                    feature: id.clone(),
+                    message: format!("{kind} has no geometry; skipped"),
+                });
+            }
+            continue;
+        };
+        let fail = |what: &str| feature_error(name, Some(id), index, what);
+        let (polygons, height) = footprint_and_height(geometry, &verts).map_err(|e| fail(&e))?;
+        let height = check_height(height).map_err(|e| fail(&e))?;
+        parsed.buildings.push(RawBuilding {
+            index,
+            id: id.clone(),
+            id_given: true,
+            polygons,
+            height,
+            occludes: true,
+            notes: Vec::new(),
+        });
+    }
+    Ok(parsed)
+}

@@ -1,0 +1,80 @@
+//! Telling the input formats apart: `--format` first, then the content
+//! (the OSM PBF header blob, JSON and its top-level `type`), then the file
+//! extension for files whose content is broken.
+
+use serde_json::Value;
+
+use super::Format;
+use crate::{Error, Result};
+
+/// What the first bytes say.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Content {
+    /// An OSM PBF file (first blob header of type "OSMHeader").
+    Pbf,
+    /// Text starting like a JSON object or array.
+    Json,
+    /// Nothing recognisable.
+    Unknown,
+}
+
+/// Sniff the content of a file.
+pub fn sniff(bytes: &[u8]) -> Content {
+    // A PBF file starts with a 4-byte big-endian header length, then a
+    // BlobHeader whose field 1 (tag 0x0a) is the string "OSMHeader".
+    if bytes.len() >= 15 && bytes[4] == 0x0a && &bytes[6..15] == b"OSMHeader" {
+        return Content::Pbf;
+    }
+    let text = bytes.strip_prefix(b"\xef\xbb\xbf").unwrap_or(bytes);
+    match text.iter().find(|b| !b.is_ascii_whitespace()) {
+        Some(b'{') | Some(b'[') => Content::Json,
+        _ => Content::Unknown,
+    }
+}
+
+/// The format a file name's extension suggests.
+pub fn from_extension(name: &str) -> Option<Format> {
+    let lower = name.to_ascii_lowercase();
+    if lower.ends_with(".pbf") {
+        Some(Format::OsmPbf)
+    } else if lower.ends_with(".city.json") || lower.ends_with(".cityjson") {
+        Some(Format::Cityjson)
+    } else if lower.ends_with(".geojson") || lower.ends_with(".json") {
+        Some(Format::Geojson)
+    } else {
+        None
+    }
+}
+
+/// The format of decoded JSON from its top-level `type`.
+pub fn json_format(root: &Value) -> Option<Format> {
+    match root.get("type").and_then(Value::as_str)? {
+        "CityJSON" => Some(Format::Cityjson),
+        "FeatureCollection" | "Feature" | "Polygon" | "MultiPolygon" => Some(Format::Geojson),
+        _ => None,
+    }
+}
+
+/// Decode JSON, with a message naming the line and column of a syntax error.
+pub fn decode_json(bytes: &[u8], name: &str) -> Result<Value> {
+    serde_json::from_slice(bytes).map_err(|e| {
+        let hint = if e.is_syntax() && is_nan_or_infinity(bytes, e.line(), e.column()) {
+            " (NaN and Infinity are not valid JSON numbers: coordinates and heights must be finite)"
+        } else {
+            ""
+        };
+        Error::new(format!("{name}: not valid JSON: {e}{hint}"))
+    })
+}
+
+/// True when the text at (line, column), both 1-based, is a NaN or Infinity token.
+fn is_nan_or_infinity(bytes: &[u8], line: usize, column: usize) -> bool {
+    let Some(text) = bytes.split(|&b| b == b'\n').nth(line.saturating_sub(1)) else {
+        return false;
+    };
+    let start = column.saturating_sub(1).min(text.len());
+    let rest = &text[start..];
+    [&b"NaN"[..], b"Infinity", b"-Infinity", b"inf", b"nan"]
+        .iter()
+        .any(|t| rest.starts_with(t) || (start > 0 && text[start - 1..].starts_with(t)))
+}

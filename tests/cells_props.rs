@@ -1,0 +1,138 @@
+//! Property tests of the view cells over random scenes: the cells tile free
+//! space exactly (area, and point sampling: every free point in exactly one
+//! cell, no footprint point in any), edges respect the bound, triangles are
+//! counter-clockwise.
+
+#[path = "geometry_scenes/mod.rs"]
+mod scenes;
+
+use citypvs::cells::{CellParams, Cells, triangulate};
+use citypvs::geometry::merge_blocks;
+use citypvs::model::{
+    Polygon, multipolygon_area, point_in_multipolygon, point_in_polygon, polygon_area,
+};
+use glam::DVec2;
+use proptest::prelude::*;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use scenes::{boundary_distance, box_points, scene, star_polygon};
+
+fn signed_area(t: &[DVec2; 3]) -> f64 {
+    0.5 * (t[1] - t[0]).perp_dot(t[2] - t[0])
+}
+
+/// Smallest signed distance from `p` to the lines of the triangle's edges
+/// (positive inside a counter-clockwise triangle).
+fn inside_margin(p: DVec2, t: &[DVec2; 3]) -> f64 {
+    (0..3)
+        .map(|i| {
+            let (a, b) = (t[i], t[(i + 1) % 3]);
+            (b - a).perp_dot(p - a) / (b - a).length()
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+fn check_cells(cells: &Cells, footprints: &[Polygon], max_edge: f64, rng: &mut ChaCha8Rng) {
+    for t in &cells.triangles {
+        assert!(
+            signed_area(t) > 0.0,
+            "triangle {t:?} is not counter-clockwise"
+        );
+        for i in 0..3 {
+            let (a, b) = (t[i], t[(i + 1) % 3]);
+            assert!(
+                a.distance(b) <= max_edge + 1e-9,
+                "edge {} > {max_edge}",
+                a.distance(b)
+            );
+            let mid = 0.5 * (a + b);
+            assert!(
+                !point_in_multipolygon(mid, footprints)
+                    || boundary_distance(mid, footprints) < 1e-6,
+                "edge midpoint {mid} inside a footprint"
+            );
+        }
+        let c = (t[0] + t[1] + t[2]) / 3.0;
+        assert!(
+            !point_in_multipolygon(c, footprints) || boundary_distance(c, footprints) < 1e-6,
+            "centroid {c} inside a footprint"
+        );
+    }
+    // Tiling: a free point lies in exactly one cell, any other in none.
+    let region = std::slice::from_ref(&cells.region);
+    for p in box_points(rng, region, 200) {
+        let near_boundary =
+            boundary_distance(p, footprints) < 1e-6 || boundary_distance(p, region) < 1e-6;
+        if near_boundary {
+            continue;
+        }
+        let free = point_in_polygon(p, &cells.region) && !point_in_multipolygon(p, footprints);
+        let margins: Vec<f64> = cells
+            .triangles
+            .iter()
+            .map(|t| inside_margin(p, t))
+            .filter(|&m| m > -1e-9)
+            .collect();
+        if free {
+            assert!(!margins.is_empty(), "free point {p} in no cell");
+            // On a shared edge a point may touch two cells; inside, only one.
+            let strictly = margins.iter().filter(|&&m| m > 1e-9).count();
+            assert!(
+                strictly <= 1 && margins.len() <= 6,
+                "free point {p} in several cells"
+            );
+        } else {
+            assert!(margins.is_empty(), "blocked point {p} is in a cell");
+        }
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(48))]
+
+    #[test]
+    fn cells_tile_the_box_minus_footprints(
+        seed in any::<u64>(),
+        margin in 0.0f64..40.0,
+        max_edge in 5.0f64..30.0,
+    ) {
+        let scene = scene(seed);
+        let blocks = merge_blocks(&scene.buildings);
+        let params = CellParams { margin, max_edge, region: None };
+        let cells = triangulate(&blocks, &params).unwrap();
+        let footprint_area: f64 = blocks.iter().map(|b| multipolygon_area(&b.levels[0].area)).sum();
+        let expected = polygon_area(&cells.region) - footprint_area;
+        let total: f64 = cells.triangles.iter().map(signed_area).sum();
+        prop_assert!((total - expected).abs() <= 1e-6 * expected, "{} vs {}", total, expected);
+        let footprints: Vec<Polygon> = scene.buildings.iter().flat_map(|b| b.footprint.clone()).collect();
+        let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0xce11);
+        check_cells(&cells, &footprints, max_edge, &mut rng);
+        let again = triangulate(&blocks, &params).unwrap();
+        prop_assert_eq!(&cells.triangles, &again.triangles);
+    }
+
+    #[test]
+    fn cells_tile_a_given_region(seed in any::<u64>(), max_edge in 5.0f64..30.0) {
+        let scene = scene(seed);
+        let blocks = merge_blocks(&scene.buildings);
+        let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x4e6);
+        // A concave region (maybe with a hole) around the row, cutting
+        // through some buildings.
+        let centre = scene.buildings[0].footprint[0].exterior[0];
+        let r_min = rng.random_range(15.0..40.0);
+        let courtyard = rng.random_bool(0.3);
+        let region = star_polygon(&mut rng, centre, r_min, r_min + 40.0, courtyard);
+        let params = CellParams { margin: 0.0, max_edge, region: Some(region.clone()) };
+        let footprints: Vec<Polygon> = scene.buildings.iter().flat_map(|b| b.footprint.clone()).collect();
+        match triangulate(&blocks, &params) {
+            Ok(cells) => {
+                prop_assert_eq!(&cells.region, &region);
+                let total: f64 = cells.triangles.iter().map(signed_area).sum();
+                prop_assert!(total <= polygon_area(&region) * (1.0 + 1e-9));
+                check_cells(&cells, &footprints, max_edge, &mut rng);
+            }
+            // Only when the footprints cover the whole region.
+            Err(e) => prop_assert!(e.message().contains("no free space"), "{}", e),
+        }
+    }
+}

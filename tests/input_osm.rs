@@ -1,0 +1,347 @@
+//! The Kotka OSM PBF extract and its GeoJSON conversion give the same
+//! buildings: same ids, heights within 1 cm, footprints within 1 cm. Also a
+//! truncated PBF fails with a clear message.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use citypvs::input::{Format, InputOptions, read_city, read_city_bytes};
+use citypvs::model::{Building, distance_to_segment, multipolygon_area, polygon_edges};
+use glam::DVec2;
+
+fn fixture(name: &str) -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("fixtures")
+        .join(name)
+}
+
+/// Largest distance from a vertex of `a` to the boundary of `b`.
+fn one_sided_distance(a: &Building, b: &Building) -> f64 {
+    let vertices: Vec<DVec2> = a
+        .footprint
+        .iter()
+        .flat_map(|p| {
+            std::iter::once(&p.exterior)
+                .chain(&p.holes)
+                .flatten()
+                .copied()
+        })
+        .collect();
+    vertices
+        .iter()
+        .map(|&v| {
+            b.footprint
+                .iter()
+                .flat_map(polygon_edges)
+                .map(|(s, t)| distance_to_segment(v, s, t))
+                .fold(f64::INFINITY, f64::min)
+        })
+        .fold(0.0, f64::max)
+}
+
+#[test]
+fn kotka_pbf_matches_its_geojson() {
+    let options = InputOptions::default();
+    let pbf = read_city(&fixture("kotka.osm.pbf"), &options).unwrap();
+    let json = read_city(&fixture("kotka.geojson"), &options).unwrap();
+    eprintln!(
+        "pbf: {} buildings, {} repaired, {} skipped {:?}",
+        pbf.buildings.len(),
+        pbf.report.repaired.len(),
+        pbf.report.skipped.len(),
+        &pbf.report.skipped[..pbf.report.skipped.len().min(5)]
+    );
+    let by_id = |c: &citypvs::input::City| -> BTreeMap<String, Building> {
+        c.buildings
+            .iter()
+            .map(|b| (b.id.clone(), b.clone()))
+            .collect()
+    };
+    let (p, j) = (by_id(&pbf), by_id(&json));
+    let only_pbf: Vec<&String> = p.keys().filter(|k| !j.contains_key(*k)).collect();
+    let only_json: Vec<&String> = j.keys().filter(|k| !p.contains_key(*k)).collect();
+    assert!(
+        only_pbf.is_empty() && only_json.is_empty(),
+        "ids differ: only in PBF {} {:?}, only in GeoJSON {} {:?}",
+        only_pbf.len(),
+        &only_pbf[..only_pbf.len().min(10)],
+        only_json.len(),
+        &only_json[..only_json.len().min(10)]
+    );
+    assert_eq!(pbf.buildings.len(), 2171);
+    // Both are centred on the same buildings, so local frames agree.
+    assert_eq!(pbf.frame, json.frame);
+    let mut worst: f64 = 0.0;
+    for (id, a) in &p {
+        let b = &j[id];
+        assert!(
+            (a.height - b.height).abs() < 0.01,
+            "{id}: {} vs {}",
+            a.height,
+            b.height
+        );
+        assert_eq!(a.occludes, b.occludes, "{id}");
+        let d = one_sided_distance(a, b).max(one_sided_distance(b, a));
+        assert!(d < 0.01, "{id}: footprints differ by {d} m");
+        worst = worst.max(d);
+    }
+    eprintln!("largest footprint difference: {worst:e} m");
+}
+
+#[test]
+fn truncated_pbf_is_a_clear_error() {
+    let bytes = std::fs::read(fixture("kotka.osm.pbf")).unwrap();
+    let cut = &bytes[..bytes.len() / 2];
+    let err = read_city_bytes(cut, "cut.osm.pbf", &InputOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.starts_with("cut.osm.pbf: ") && err.contains("truncated"),
+        "{err}"
+    );
+    // Forcing the format on a GeoJSON file gives a PBF error, not a panic.
+    let json = std::fs::read(fixture("kotka.geojson")).unwrap();
+    let forced = InputOptions {
+        format: Some(Format::OsmPbf),
+        ..InputOptions::default()
+    };
+    let err = read_city_bytes(&json, "k.geojson", &forced)
+        .unwrap_err()
+        .to_string();
+    assert!(err.starts_with("k.geojson: "), "{err}");
+}
+
+/// A minimal OSM PBF writer (uncompressed blobs, plain nodes) for small test files.
+mod pbf {
+    fn varint(out: &mut Vec<u8>, mut v: u64) {
+        while v >= 0x80 {
+            out.push((v as u8) | 0x80);
+            v >>= 7;
+        }
+        out.push(v as u8);
+    }
+
+    fn zigzag(v: i64) -> u64 {
+        ((v << 1) ^ (v >> 63)) as u64
+    }
+
+    fn key(out: &mut Vec<u8>, field: u32, wire: u8) {
+        varint(out, ((field as u64) << 3) | wire as u64);
+    }
+
+    pub fn bytes_field(out: &mut Vec<u8>, field: u32, data: &[u8]) {
+        key(out, field, 2);
+        varint(out, data.len() as u64);
+        out.extend_from_slice(data);
+    }
+
+    pub fn int_field(out: &mut Vec<u8>, field: u32, v: u64) {
+        key(out, field, 0);
+        varint(out, v);
+    }
+
+    pub fn sint_field(out: &mut Vec<u8>, field: u32, v: i64) {
+        int_field(out, field, zigzag(v));
+    }
+
+    pub fn packed(out: &mut Vec<u8>, field: u32, values: &[u64]) {
+        let mut data = Vec::new();
+        for &v in values {
+            varint(&mut data, v);
+        }
+        bytes_field(out, field, &data);
+    }
+
+    pub fn packed_delta_sint(out: &mut Vec<u8>, field: u32, values: &[i64]) {
+        let mut last = 0;
+        let deltas: Vec<u64> = values
+            .iter()
+            .map(|&v| {
+                let d = zigzag(v - last);
+                last = v;
+                d
+            })
+            .collect();
+        packed(out, field, &deltas);
+    }
+
+    /// Element tags as string-table indices.
+    pub struct Strings(pub Vec<String>);
+
+    impl Strings {
+        pub fn index(&mut self, s: &str) -> u64 {
+            match self.0.iter().position(|x| x == s) {
+                Some(i) => i as u64,
+                None => {
+                    self.0.push(s.to_string());
+                    (self.0.len() - 1) as u64
+                }
+            }
+        }
+
+        pub fn tags(&mut self, out: &mut Vec<u8>, tags: &[(&str, &str)]) {
+            let keys: Vec<u64> = tags.iter().map(|t| self.index(t.0)).collect();
+            let vals: Vec<u64> = tags.iter().map(|t| self.index(t.1)).collect();
+            packed(out, 2, &keys);
+            packed(out, 3, &vals);
+        }
+    }
+
+    fn blob(out: &mut Vec<u8>, kind: &str, message: &[u8]) {
+        let mut blob = Vec::new();
+        bytes_field(&mut blob, 1, message);
+        int_field(&mut blob, 2, message.len() as u64);
+        let mut header = Vec::new();
+        bytes_field(&mut header, 1, kind.as_bytes());
+        int_field(&mut header, 3, blob.len() as u64);
+        out.extend_from_slice(&(header.len() as u32).to_be_bytes());
+        out.extend_from_slice(&header);
+        out.extend_from_slice(&blob);
+    }
+
+    /// A whole file: a header blob and one data blob holding `group` (a
+    /// PrimitiveGroup's bytes) with string table `strings`.
+    pub fn file(strings: &Strings, groups: &[Vec<u8>]) -> Vec<u8> {
+        let mut out = Vec::new();
+        let mut header = Vec::new();
+        bytes_field(&mut header, 4, b"OsmSchema-V0.6");
+        blob(&mut out, "OSMHeader", &header);
+        let mut table = Vec::new();
+        for s in &strings.0 {
+            bytes_field(&mut table, 1, s.as_bytes());
+        }
+        let mut block = Vec::new();
+        bytes_field(&mut block, 1, &table);
+        for g in groups {
+            bytes_field(&mut block, 2, g);
+        }
+        blob(&mut out, "OSMData", &block);
+        out
+    }
+}
+
+/// A tiny extract: a building way, a lifted building part, an unclosed
+/// building way, a multipolygon building with a courtyard whose outer ring is
+/// split over two ways (one drawn backwards), and a relation with a missing way.
+fn tiny_extract() -> Vec<u8> {
+    let mut s = pbf::Strings(vec![String::new()]);
+    let square = |x: f64, y: f64, d: f64| [(x, y), (x + d, y), (x + d, y + d), (x, y + d)];
+    let mut nodes_at: Vec<(f64, f64)> = Vec::new();
+    nodes_at.extend(square(25.0, 60.0, 0.0002)); // 1-4: w10
+    nodes_at.extend(square(25.001, 60.0, 0.0002)); // 5-8: w11
+    nodes_at.extend([(25.002, 60.0), (25.0022, 60.0), (25.0022, 60.0002)]); // 9-11: w12
+    nodes_at.extend(square(25.003, 60.0, 0.0004)); // 12-15: r20 outer
+    nodes_at.extend(square(25.0031, 60.0001, 0.0002)); // 16-19: r20 inner
+    let mut group_nodes = Vec::new();
+    for (i, (lon, lat)) in nodes_at.iter().enumerate() {
+        let mut node = Vec::new();
+        pbf::sint_field(&mut node, 1, i as i64 + 1);
+        pbf::packed(&mut node, 2, &[]);
+        pbf::sint_field(&mut node, 8, (lat * 1e7).round() as i64);
+        pbf::sint_field(&mut node, 9, (lon * 1e7).round() as i64);
+        pbf::bytes_field(&mut group_nodes, 1, &node);
+    }
+    let ways: Vec<(i64, Vec<i64>, Vec<(&str, &str)>)> = vec![
+        (
+            10,
+            vec![1, 2, 3, 4, 1],
+            vec![("building", "yes"), ("height", "12 m")],
+        ),
+        (
+            11,
+            vec![5, 6, 7, 8, 5],
+            vec![
+                ("building:part", "yes"),
+                ("min_height", "6"),
+                ("height", "10"),
+            ],
+        ),
+        (12, vec![9, 10, 11], vec![("building", "yes")]),
+        (13, vec![1, 2, 3, 1], vec![("building", "no")]),
+        (21, vec![12, 13, 14], vec![]),
+        (22, vec![12, 15, 14], vec![]),
+        (23, vec![16, 19, 18, 17, 16], vec![]),
+    ];
+    let mut group_ways = Vec::new();
+    for (id, refs, tags) in &ways {
+        let mut way = Vec::new();
+        pbf::int_field(&mut way, 1, *id as u64);
+        s.tags(&mut way, tags);
+        pbf::packed_delta_sint(&mut way, 8, refs);
+        pbf::bytes_field(&mut group_ways, 3, &way);
+    }
+    let relations: Vec<(i64, Vec<(i64, &str)>, Vec<(&str, &str)>)> = vec![
+        (
+            20,
+            vec![(21, "outer"), (23, "inner"), (22, "outer")],
+            vec![
+                ("type", "multipolygon"),
+                ("building", "yes"),
+                ("building:levels", "3"),
+            ],
+        ),
+        (
+            30,
+            vec![(21, "outer"), (99, "outer")],
+            vec![("type", "multipolygon"), ("building", "yes")],
+        ),
+    ];
+    let mut group_relations = Vec::new();
+    for (id, members, tags) in &relations {
+        let mut rel = Vec::new();
+        pbf::int_field(&mut rel, 1, *id as u64);
+        s.tags(&mut rel, tags);
+        let roles: Vec<u64> = members.iter().map(|m| s.index(m.1)).collect();
+        pbf::packed(&mut rel, 8, &roles);
+        let ids: Vec<i64> = members.iter().map(|m| m.0).collect();
+        pbf::packed_delta_sint(&mut rel, 9, &ids);
+        pbf::packed(&mut rel, 10, &vec![1; members.len()]);
+        pbf::bytes_field(&mut group_relations, 4, &rel);
+    }
+    pbf::file(&s, &[group_nodes, group_ways, group_relations])
+}
+
+#[test]
+fn relations_parts_and_broken_features() {
+    let bytes = tiny_extract();
+    let city = read_city_bytes(&bytes, "tiny.osm.pbf", &InputOptions::default()).unwrap();
+    let ids: Vec<&str> = city.buildings.iter().map(|b| b.id.as_str()).collect();
+    assert_eq!(ids, ["w10", "w11", "r20"]);
+    assert_eq!(city.report.features_read, 5);
+    let skipped: Vec<(&str, &str)> = city
+        .report
+        .skipped
+        .iter()
+        .map(|w| (w.feature.as_str(), w.message.as_str()))
+        .collect();
+    assert_eq!(skipped.len(), 2, "{skipped:?}");
+    assert!(
+        skipped[0].0 == "w12" && skipped[0].1.contains("not closed"),
+        "{skipped:?}"
+    );
+    assert!(
+        skipped[1].0 == "r30" && skipped[1].1.contains("99"),
+        "{skipped:?}"
+    );
+    let heights: Vec<f64> = city.buildings.iter().map(|b| b.height).collect();
+    assert_eq!(heights, [12.0, 10.0, 9.0]);
+    let occludes: Vec<bool> = city.buildings.iter().map(|b| b.occludes).collect();
+    assert_eq!(occludes, [true, false, true]);
+    // The relation: one polygon with the courtyard as a hole. Its outer
+    // square has twice w10's side and the hole w10's side: 4 - 1 = 3 times w10's area.
+    let r20 = &city.buildings[2].footprint;
+    assert_eq!(r20.len(), 1);
+    assert_eq!(r20[0].holes.len(), 1);
+    let w10 = multipolygon_area(&city.buildings[0].footprint);
+    let r = multipolygon_area(r20);
+    assert!((r / w10 - 3.0).abs() < 0.01, "{r} {w10}");
+
+    let strict = InputOptions {
+        strict: true,
+        ..InputOptions::default()
+    };
+    let err = read_city_bytes(&bytes, "tiny.osm.pbf", &strict)
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("\"w12\"") && err.contains("--strict"), "{err}");
+}
