@@ -111,7 +111,7 @@ fn pvs_size_layer_reads_every_cell_from_the_file() {
         let t = (sizes[c] - lo) as f64 / (hi - lo) as f64;
         assert_eq!(
             drawing.rendered.colour_at(centre),
-            Some(palette::PVS_RAMP.at(t))
+            Some(palette::PVS_RAMP.step(t))
         );
     }
 }
@@ -133,7 +133,7 @@ fn cull_map_and_radius_zoom_around_the_cell_without_a_file() {
             .iter()
             .any(|_| behind != palette::OUTSIDE)
     );
-    assert_eq!(behind, palette::CULL_RAMP.at(1.0));
+    assert_eq!(behind, palette::CULL_RAMP.step(1.0));
     assert_eq!(r.colour_at(DVec2::new(-20.0, -8.0)), Some(palette::OUTSIDE));
     assert!(
         r.colour_at(DVec2::new(0.0, 35.0)).is_none(),

@@ -131,7 +131,7 @@ fn cull_map_heat_lies_where_the_wall_shadows() {
         ..picture(&scene)
     })
     .unwrap();
-    assert_eq!(at(&r, behind), palette::CULL_RAMP.at(f_at(behind) / 20.0));
+    assert_eq!(at(&r, behind), palette::CULL_RAMP.step(f_at(behind) / 20.0));
     assert_eq!(at(&r, open), palette::OUTSIDE);
     // Buildings stay on top of the heat.
     assert_eq!(at(&r, centre(&scene, HOUSE)), palette::CULLED);
@@ -151,6 +151,36 @@ fn cull_map_heat_lies_where_the_wall_shadows() {
 }
 
 #[test]
+fn png_keeps_the_map_colours_exactly() {
+    let scene = street();
+    let p = params(&scene);
+    let focus = Focus::compute(&scene, &p, 0).unwrap();
+    let image = cell_cull_map(&scene, &p, 0, 60.0);
+    let r = render(&Picture {
+        focus: Some(&focus),
+        cull_map: Some(&image),
+        ..picture(&scene)
+    })
+    .unwrap();
+    let back = tiny_skia::Pixmap::decode_png(&r.png().unwrap()).unwrap();
+    assert_eq!(
+        (back.width(), back.height()),
+        (r.pixmap.width(), r.pixmap.height())
+    );
+    for q in [
+        centre(&scene, WALL),
+        centre(&scene, HOUSE),
+        cell_centre(&scene, 0),
+        DVec2::new(-20.0, 22.0),
+        DVec2::new(-20.0, -8.0),
+    ] {
+        let (x, y) = r.viewport.pixel_of(q).unwrap();
+        let c = back.pixel(x, y).unwrap().demultiply();
+        assert_eq!(Rgb(c.red(), c.green(), c.blue()), at(&r, q), "at {q}");
+    }
+}
+
+#[test]
 fn pvs_size_heat_map_colours_each_cell_by_its_set_size() {
     let scene = street();
     let result = compute_pvs(&scene, &params(&scene), &|_| {}).unwrap();
@@ -164,7 +194,7 @@ fn pvs_size_heat_map_colours_each_cell_by_its_set_size() {
     .unwrap();
     for c in 0..2 {
         let t = (sizes[c] - lo) as f64 / (hi - lo) as f64;
-        assert_eq!(at(&r, cell_centre(&scene, c)), palette::PVS_RAMP.at(t));
+        assert_eq!(at(&r, cell_centre(&scene, c)), palette::PVS_RAMP.step(t));
     }
     assert_eq!(at(&r, centre(&scene, HOUSE)), palette::NEUTRAL_BUILDING);
 }
@@ -175,7 +205,7 @@ fn whole_city_map_shades_taller_buildings_darker() {
     let r = render(&picture(&scene)).unwrap();
     let wall = at(&r, centre(&scene, WALL));
     let side = at(&r, centre(&scene, SIDE));
-    assert_eq!(wall, palette::HEIGHT_RAMP.at(1.0));
+    assert_eq!(wall, palette::HEIGHT_RAMP.step(1.0));
     assert!(brightness(wall) < brightness(side));
     assert_eq!(at(&r, cell_centre(&scene, 0)), palette::FREE_SPACE);
     // The legend panel is below the map and has ink on it.

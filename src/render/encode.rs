@@ -1,12 +1,15 @@
 //! PNG encoding of a finished picture: an 8-bit palette image, which keeps
 //! city maps small. A picture of at most 256 colours is stored exactly.
-//! Otherwise (anti-aliased blends along edges, long heat ramps) the palette
-//! is the most frequent colours (the map's flat colours are among them)
-//! plus a coarse colour cube, and each pixel takes the nearest entry.
+//! Otherwise (anti-aliased blends along edges) the palette is the colours
+//! the caller requires (the flat map colours and ramp steps), the most
+//! frequent other colours and a coarse colour cube, and each pixel takes
+//! the nearest entry.
 
 use std::collections::HashMap;
 
 use tiny_skia::Pixmap;
+
+use super::palette::Rgb;
 
 use crate::{Error, Result};
 
@@ -22,9 +25,8 @@ fn distance2(a: Rgb8, b: Rgb8) -> u32 {
         .sum()
 }
 
-/// The palette (most frequent colours first, ties by colour) and each
-/// pixel's index into it.
-fn quantise(pixmap: &Pixmap) -> (Vec<Rgb8>, Vec<u8>) {
+/// The palette and each pixel's index into it.
+fn quantise(pixmap: &Pixmap, required: &[Rgb]) -> (Vec<Rgb8>, Vec<u8>) {
     let rgb: Vec<Rgb8> = pixmap
         .pixels()
         .iter()
@@ -53,11 +55,20 @@ fn quantise(pixmap: &Pixmap) -> (Vec<Rgb8>, Vec<u8>) {
                 levels.flat_map(move |g| (0..CUBE_LEVELS).map(move |b| [r, g, b * step]))
             })
             .collect();
-        let frequent = by_count
+        let mut palette: Vec<Rgb8> = Vec::with_capacity(256);
+        for c in required.iter().map(|c| [c.0, c.1, c.2]) {
+            if !palette.contains(&c) && !cube.contains(&c) && palette.len() + cube.len() < 256 {
+                palette.push(c);
+            }
+        }
+        let room = 256 - cube.len() - palette.len();
+        let frequent: Vec<Rgb8> = by_count
             .iter()
             .map(|(c, _)| *c)
-            .filter(|c| !cube.contains(c));
-        let mut palette: Vec<Rgb8> = frequent.take(256 - cube.len()).collect();
+            .filter(|c| !cube.contains(c) && !palette.contains(c))
+            .take(room)
+            .collect();
+        palette.extend(frequent);
         palette.extend(cube);
         palette
     };
@@ -74,9 +85,10 @@ fn quantise(pixmap: &Pixmap) -> (Vec<Rgb8>, Vec<u8>) {
     (palette, indices)
 }
 
-/// The picture as PNG bytes (8-bit palette, best compression).
-pub fn encode_png(pixmap: &Pixmap) -> Result<Vec<u8>> {
-    let (palette, indices) = quantise(pixmap);
+/// The picture as PNG bytes (8-bit palette, best compression); the
+/// `required` colours are kept exactly.
+pub fn encode_png(pixmap: &Pixmap, required: &[Rgb]) -> Result<Vec<u8>> {
+    let (palette, indices) = quantise(pixmap, required);
     let fail = |e: png::EncodingError| Error::new(format!("cannot encode the picture as PNG: {e}"));
     let mut out = Vec::new();
     {
@@ -111,7 +123,7 @@ mod tests {
             Transform::identity(),
             None,
         );
-        let png = encode_png(&pm).unwrap();
+        let png = encode_png(&pm, &[]).unwrap();
         let back = Pixmap::decode_png(&png).unwrap();
         assert_eq!(back.data(), pm.data());
         // A gradient of 64 * 32 reds and greens: more than 256 colours.
@@ -123,14 +135,18 @@ mod tests {
                 pm.pixels_mut()[(y * 64 + x) as usize] = c;
             }
         }
-        let back = Pixmap::decode_png(&encode_png(&pm).unwrap()).unwrap();
+        let rare = Rgb(4, 8, 0);
+        let back = Pixmap::decode_png(&encode_png(&pm, &[rare]).unwrap()).unwrap();
         for (a, b) in pm.pixels().iter().zip(back.pixels()) {
             let (a, b) = (a.demultiply(), b.demultiply());
-            let d = distance2(
+            let (a, b) = (
                 [a.red(), a.green(), a.blue()],
                 [b.red(), b.green(), b.blue()],
             );
-            assert!(d <= 3 * 43 * 43, "{a:?} -> {b:?}");
+            assert!(distance2(a, b) <= 3 * 43 * 43, "{a:?} -> {b:?}");
+            if a == [rare.0, rare.1, rare.2] {
+                assert_eq!(a, b, "a required colour is kept exactly");
+            }
         }
     }
 }

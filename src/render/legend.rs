@@ -4,7 +4,7 @@
 use tiny_skia::{FillRule, Paint, PathBuilder, Pixmap, Rect as SkRect, Stroke, Transform};
 
 use super::font::{draw_text, text_width};
-use super::palette::{self, Ramp, Rgb};
+use super::palette::{self, RAMP_STEPS, Ramp, Rgb};
 
 /// How a legend swatch shows its colour.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -174,6 +174,7 @@ fn fill_rect(pixmap: &mut Pixmap, x: f32, y: f32, w: f32, h: f32, colour: Rgb) {
     if let Some(r) = SkRect::from_xywh(x, y, w, h) {
         let mut p = Paint::default();
         p.set_color(colour.color());
+        p.anti_alias = false;
         pixmap.fill_rect(r, &p, Transform::identity(), None);
     }
 }
@@ -259,13 +260,15 @@ pub fn draw(
                 cx += text_width(label, t) + m.label_gap();
                 draw_text(pixmap, low, cx, y, t, palette::INK);
                 cx += text_width(low, t) + m.inner_gap();
-                let bar = m.ramp_bar();
-                let steps = bar.ceil() as usize;
-                let (by, bh) = (y - 1.1 * t, 1.2 * t);
-                for i in 0..steps {
-                    let c = ramp.at(i as f64 / (steps - 1).max(1) as f64);
-                    fill_rect(pixmap, cx + i as f32, by, 1.0, bh, c);
+                let bar = m.ramp_bar().round();
+                let (by, bh) = ((y - 1.1 * t).round(), (1.2 * t).round());
+                let (x0, n) = (cx.round(), RAMP_STEPS as f32);
+                for (k, c) in ramp.steps().enumerate() {
+                    let a = (x0 + bar * k as f32 / n).round();
+                    let b = (x0 + bar * (k + 1) as f32 / n).round();
+                    fill_rect(pixmap, a, by, b - a, bh, c);
                 }
+                cx = x0;
                 stroke_rect(pixmap, cx, by, bar, bh, palette::INK, line);
                 cx += bar + m.inner_gap();
                 draw_text(pixmap, high, cx, y, t, palette::INK);

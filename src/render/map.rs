@@ -177,7 +177,7 @@ pub fn draw_cull_map(
                 } else {
                     1.0
                 };
-                let c = ramp.at(t);
+                let c = ramp.step(t);
                 pixels[y as usize * width + x as usize] =
                     PremultipliedColorU8::from_rgba(c.0, c.1, c.2, 255).expect("opaque colour");
             }

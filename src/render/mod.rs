@@ -59,6 +59,9 @@ pub struct Rendered {
     pub pixmap: Pixmap,
     /// The map occupies rows `0..viewport.height`; the panel is below.
     pub viewport: Viewport,
+    /// Colours the PNG must keep exactly: the flat colours and the steps of
+    /// the ramps shown.
+    exact_colours: Vec<Rgb>,
 }
 
 impl Rendered {
@@ -70,10 +73,11 @@ impl Rendered {
         Some(Rgb(c.red(), c.green(), c.blue()))
     }
 
-    /// The picture as PNG bytes: an 8-bit palette image; with more than 256
-    /// colours, each pixel takes the nearest of the 256 most frequent.
+    /// The picture as PNG bytes: an 8-bit palette image. The flat colours
+    /// and ramp steps are kept exactly; with more than 256 colours in all,
+    /// anti-aliased blends take the nearest palette entry.
     pub fn png(&self) -> Result<Vec<u8>> {
-        encode::encode_png(&self.pixmap)
+        encode::encode_png(&self.pixmap, &self.exact_colours)
     }
 }
 
@@ -234,6 +238,14 @@ fn legend_entries(picture: &Picture, sizes: Option<(usize, usize)>, max_height: 
     entries
 }
 
+/// The ramps a legend shows.
+fn legend_ramps(entries: &[Entry]) -> impl Iterator<Item = palette::Ramp> + '_ {
+    entries.iter().filter_map(|e| match e {
+        Entry::Ramp { ramp, .. } => Some(*ramp),
+        _ => None,
+    })
+}
+
 /// Draw a picture.
 pub fn render(picture: &Picture) -> Result<Rendered> {
     let view = check(picture)?;
@@ -260,7 +272,7 @@ pub fn render(picture: &Picture) -> Result<Rendered> {
         (Some(sizes), Some((lo, hi))) => {
             let span = (hi - lo).max(1) as f64;
             map::fill_cells(&mut map, &vp, triangles, |c| {
-                palette::PVS_RAMP.at((sizes[c] - lo) as f64 / span)
+                palette::PVS_RAMP.step((sizes[c] - lo) as f64 / span)
             })
         }
         _ => map::fill_cells(&mut map, &vp, triangles, |_| palette::FREE_SPACE),
@@ -281,7 +293,7 @@ pub fn render(picture: &Picture) -> Result<Rendered> {
         Some(f) if f.sees(b) => palette::VISIBLE,
         Some(_) => palette::CULLED,
         None if picture.pvs_sizes.is_some() => palette::NEUTRAL_BUILDING,
-        None => palette::HEIGHT_RAMP.at(buildings[b].height / max_height),
+        None => palette::HEIGHT_RAMP.step(buildings[b].height / max_height),
     };
     map::draw_buildings(&mut map, &vp, buildings, colour_of, line);
     if picture.cull_map.is_some() {
@@ -307,8 +319,13 @@ pub fn render(picture: &Picture) -> Result<Rendered> {
         None,
     );
     legend::draw(&mut pixmap, &entries, &layout, vp.height as f32, vp.scale);
+    let mut exact_colours = palette::FLAT.to_vec();
+    for ramp in legend_ramps(&entries) {
+        exact_colours.extend(ramp.steps());
+    }
     Ok(Rendered {
         pixmap,
         viewport: vp,
+        exact_colours,
     })
 }

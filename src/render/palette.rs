@@ -60,11 +60,46 @@ pub const PANEL: Rgb = Rgb(255, 255, 255);
 /// White, for halos and scale-bar segments.
 pub const WHITE: Rgb = Rgb(255, 255, 255);
 
+/// The flat colours of map features and the panel.
+pub const FLAT: [Rgb; 14] = [
+    OUTSIDE,
+    FREE_SPACE,
+    CELL_OUTLINE,
+    CHOSEN_CELL,
+    VISIBLE,
+    CULLED,
+    NEUTRAL_BUILDING,
+    BUILDING_OUTLINE,
+    OCCLUDER_OUTLINE,
+    SAMPLE,
+    INK,
+    PANEL,
+    WHITE,
+    Rgb(0, 0, 0),
+];
+
+/// Ramps are drawn in this many steps: a picture then has few colours, all
+/// of them in its PNG palette exactly, and each step is told apart.
+pub const RAMP_STEPS: usize = 32;
+
 /// A colour ramp: evenly spaced stops, linear in between.
 #[derive(Clone, Copy, Debug)]
 pub struct Ramp(pub &'static [Rgb]);
 
 impl Ramp {
+    /// The colour of the step that `t` in 0..=1 (clamped) falls in: the
+    /// ramp at the nearest of [`RAMP_STEPS`] evenly spaced points.
+    pub fn step(&self, t: f64) -> Rgb {
+        let t = if t.is_nan() { 0.0 } else { t.clamp(0.0, 1.0) };
+        let last = (RAMP_STEPS - 1) as f64;
+        self.at((t * last).round() / last)
+    }
+
+    /// Every step's colour, low to high.
+    pub fn steps(&self) -> impl Iterator<Item = Rgb> + '_ {
+        (0..RAMP_STEPS).map(|k| self.at(k as f64 / (RAMP_STEPS - 1) as f64))
+    }
+
     /// The colour at `t` in 0..=1 (clamped).
     pub fn at(&self, t: f64) -> Rgb {
         let stops = self.0;
@@ -113,5 +148,20 @@ mod tests {
         assert_eq!(PVS_RAMP.at(-3.0), stops[0]);
         assert_eq!(PVS_RAMP.at(7.0), stops[stops.len() - 1]);
         assert_eq!(PVS_RAMP.at(f64::NAN), stops[0]);
+    }
+
+    #[test]
+    fn steps_are_the_only_colours_step_gives() {
+        let steps: Vec<Rgb> = CULL_RAMP.steps().collect();
+        assert_eq!(steps.len(), RAMP_STEPS);
+        assert_eq!(steps[0], CULL_RAMP.at(0.0));
+        assert_eq!(steps[RAMP_STEPS - 1], CULL_RAMP.at(1.0));
+        for k in 0..=1000 {
+            let t = k as f64 / 1000.0;
+            let c = CULL_RAMP.step(t);
+            let i = steps.iter().position(|s| *s == c).expect("a step colour");
+            let centre = i as f64 / (RAMP_STEPS - 1) as f64;
+            assert!((t - centre).abs() <= 0.5 / (RAMP_STEPS - 1) as f64 + 1e-12);
+        }
     }
 }
