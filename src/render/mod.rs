@@ -181,7 +181,12 @@ fn metres(v: f64) -> String {
 }
 
 /// The legend entries for what the picture shows.
-fn legend_entries(picture: &Picture, sizes: Option<(usize, usize)>, max_height: f64) -> Vec<Entry> {
+fn legend_entries(
+    picture: &Picture,
+    sizes: Option<(usize, usize)>,
+    max_height: f64,
+    cell_outlines: bool,
+) -> Vec<Entry> {
     let scene = picture.scene;
     let mut entries = Vec::new();
     let swatch = |colour, mark, label: &str| Entry::Swatch {
@@ -213,7 +218,9 @@ fn legend_entries(picture: &Picture, sizes: Option<(usize, usize)>, max_height: 
             high: metres(max_height),
         }),
     }
-    entries.push(swatch(palette::CELL_OUTLINE, Mark::Outline, "VIEW CELL"));
+    if cell_outlines {
+        entries.push(swatch(palette::CELL_OUTLINE, Mark::Outline, "VIEW CELL"));
+    }
     if let Some((lo, hi)) = sizes {
         entries.push(Entry::Ramp {
             ramp: palette::PVS_RAMP,
@@ -280,10 +287,12 @@ pub fn render(picture: &Picture) -> Result<Rendered> {
     if let Some(image) = picture.cull_map {
         map::draw_cull_map(&mut map, &vp, image, max_height, palette::CULL_RAMP, line);
     }
-    let mut outline_alpha = map::cell_outline_alpha(&vp, triangles);
-    if picture.pvs_sizes.is_some() {
-        outline_alpha *= 0.5;
-    }
+    // Over the PVS-size heat map the cells show as patches of colour;
+    // outlines would only blur it (and double the PNG).
+    let outline_alpha = match picture.pvs_sizes {
+        Some(_) => 0.0,
+        None => map::cell_outline_alpha(&vp, triangles),
+    };
     map::outline_cells(&mut map, &vp, triangles, line, outline_alpha);
     if let Some(f) = picture.focus {
         map::draw_chosen_cell(&mut map, &vp, &triangles[f.cell], 1.5 * line);
@@ -304,7 +313,7 @@ pub fn render(picture: &Picture) -> Result<Rendered> {
         map::draw_samples(&mut map, &vp, &f.samples, (2.5 * line).max(1.5));
     }
 
-    let entries = legend_entries(picture, size_range, max_height);
+    let entries = legend_entries(picture, size_range, max_height, outline_alpha > 0.0);
     let layout = legend::layout(&entries, width, vp.scale);
     let total = vp.height + layout.height();
     let mut pixmap = Pixmap::new(width, total)
