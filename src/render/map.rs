@@ -88,7 +88,7 @@ pub fn fill_cells(
 }
 
 /// Opacity of the cell outlines: they fade out as cells shrink on screen
-/// (median edge from 15 px down to 3 px), so a whole city's thousands of
+/// (median edge from 25 px down to 6 px), so a whole city's thousands of
 /// cells do not bury the map in grey.
 pub fn cell_outline_alpha(vp: &Viewport, triangles: &[[DVec2; 3]]) -> f32 {
     let mut edges: Vec<f64> = triangles
@@ -101,7 +101,7 @@ pub fn cell_outline_alpha(vp: &Viewport, triangles: &[[DVec2; 3]]) -> f32 {
     }
     edges.sort_by(f64::total_cmp);
     let median_px = edges[edges.len() / 2] * vp.scale;
-    (((median_px - 3.0) / 12.0) as f32).clamp(0.0, 0.8)
+    (((median_px - 6.0) / 24.0) as f32).clamp(0.0, 0.8)
 }
 
 /// Thin outlines of every cell in the view at opacity `alpha`, stroked as
