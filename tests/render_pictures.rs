@@ -192,8 +192,8 @@ fn pvs_size_heat_map_colours_each_cell_by_its_set_size() {
         ..picture(&scene)
     })
     .unwrap();
-    for c in 0..2 {
-        let t = (sizes[c] - lo) as f64 / (hi - lo) as f64;
+    for (c, &size) in sizes.iter().enumerate() {
+        let t = (size - lo) as f64 / (hi - lo) as f64;
         assert_eq!(at(&r, cell_centre(&scene, c)), palette::PVS_RAMP.step(t));
     }
     assert_eq!(at(&r, centre(&scene, HOUSE)), palette::NEUTRAL_BUILDING);

@@ -121,34 +121,34 @@ fn check(picture: &Picture) -> Result<Rect> {
             picture.width
         )));
     }
-    if let Some(f) = picture.focus {
-        if f.cell >= scene.cells.triangles.len() {
-            return Err(Error::new(format!(
-                "cell {} does not exist (the scene has {} cells)",
-                f.cell,
-                scene.cells.triangles.len()
-            )));
-        }
+    if let Some(f) = picture.focus
+        && f.cell >= scene.cells.triangles.len()
+    {
+        return Err(Error::new(format!(
+            "cell {} does not exist (the scene has {} cells)",
+            f.cell,
+            scene.cells.triangles.len()
+        )));
     }
-    if let Some(sizes) = picture.pvs_sizes {
-        if sizes.len() != scene.cells.triangles.len() {
-            return Err(Error::new(format!(
-                "{} PVS sizes given for {} cells",
-                sizes.len(),
-                scene.cells.triangles.len()
-            )));
-        }
+    if let Some(sizes) = picture.pvs_sizes
+        && sizes.len() != scene.cells.triangles.len()
+    {
+        return Err(Error::new(format!(
+            "{} PVS sizes given for {} cells",
+            sizes.len(),
+            scene.cells.triangles.len()
+        )));
     }
-    if let Some(c) = picture.cull_map {
-        if c.heights.len() != c.width * c.height || !(c.pixel > 0.0) {
-            return Err(Error::new(format!(
-                "the cull map's {} heights do not fill {} x {} pixels of {} m",
-                c.heights.len(),
-                c.width,
-                c.height,
-                c.pixel
-            )));
-        }
+    if let Some(c) = picture.cull_map
+        && (c.heights.len() != c.width * c.height || c.pixel.is_nan() || c.pixel <= 0.0)
+    {
+        return Err(Error::new(format!(
+            "the cull map's {} heights do not fill {} x {} pixels of {} m",
+            c.heights.len(),
+            c.width,
+            c.height,
+            c.pixel
+        )));
     }
     let view = picture.view.unwrap_or_else(|| scene_bounds(scene));
     let finite = [view.min, view.max].iter().all(|p| p.is_finite());
