@@ -218,6 +218,18 @@ fn whole_city_map_shades_taller_buildings_darker() {
         })
         .count();
     assert!(inked > 200, "{inked} dark pixels in the legend");
+    // The narrowest picture still has its map and legend.
+    let small = render(&Picture {
+        width: citypvs::render::MIN_SIZE,
+        ..picture(&scene)
+    })
+    .unwrap();
+    assert_eq!(small.pixmap.width(), citypvs::render::MIN_SIZE);
+    assert!(small.pixmap.height() > small.viewport.height);
+    assert_eq!(
+        at(&small, centre(&scene, WALL)),
+        palette::HEIGHT_RAMP.step(1.0)
+    );
 }
 
 #[test]
