@@ -8,6 +8,7 @@ pub mod common;
 pub mod generate;
 pub mod inspect;
 pub mod prepare;
+pub mod verify;
 pub mod render;
 
 use clap::{Parser, Subcommand};
@@ -32,6 +33,8 @@ pub enum Command {
     Bench(bench::BenchArgs),
     /// Print a .pvs file's header and statistics, or dump it as JSON.
     Inspect(inspect::InspectArgs),
+    /// Check a .pvs file against its city by exact visibility from sampled viewpoints.
+    Verify(verify::VerifyArgs),
     /// Draw a PNG map of a city, a cell's visible set, its cull map or every cell's PVS size.
     Render(render::RenderArgs),
 }
@@ -45,6 +48,7 @@ pub fn main() -> i32 {
         Command::Bake(args) => bake::run(&args),
         Command::Bench(args) => bench::run(&args),
         Command::Inspect(args) => inspect::run(&args),
+        Command::Verify(args) => verify::run(&args),
         Command::Render(args) => render::run(&args),
     };
     match result {

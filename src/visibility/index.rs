@@ -76,6 +76,8 @@ pub struct SceneIndex {
     bucket_origin: DVec2,
     bucket_dims: (usize, usize),
     buckets: Vec<Vec<u32>>,
+    /// Greatest occluder height among each bucket's edges (0 when empty).
+    bucket_heights: Vec<f64>,
     pub objects: Vec<ObjectRaster>,
     pub pyramid: Vec<PyramidNode>,
     /// Index of the root node of the pyramid (none when there are no objects).
@@ -114,6 +116,10 @@ impl SceneIndex {
                 }
             }
         }
+        let bucket_heights = buckets
+            .iter()
+            .map(|b| b.iter().map(|&e| edges[e as usize].height).fold(0.0, f64::max))
+            .collect();
         let objects: Vec<ObjectRaster> = buildings
             .iter()
             .map(|b| rasterise_object(b, grid))
@@ -126,6 +132,7 @@ impl SceneIndex {
             bucket_origin,
             bucket_dims: (nx, ny),
             buckets,
+            bucket_heights,
             objects,
             pyramid,
             root,
@@ -148,18 +155,15 @@ impl SceneIndex {
         dx.max(dy)
     }
 
-    /// Call `f` with every edge in the buckets at Chebyshev distance exactly
-    /// `ring` from the bucket containing `v` (an edge may be reported more
-    /// than once).
-    pub fn edges_in_ring(&self, v: DVec2, ring: i64, mut f: impl FnMut(u32)) {
+    /// Call `f` with every bucket at Chebyshev distance exactly `ring` from
+    /// the bucket containing `v`.
+    pub fn buckets_in_ring(&self, v: DVec2, ring: i64, mut f: impl FnMut(usize)) {
         let (nx, ny) = (self.bucket_dims.0 as i64, self.bucket_dims.1 as i64);
         let q = ((v - self.bucket_origin) / self.bucket_size).floor();
         let (cx, cy) = (q.x as i64, q.y as i64);
         let mut visit = |x: i64, y: i64| {
             if x >= 0 && y >= 0 && x < nx && y < ny {
-                for &e in &self.buckets[(y * nx + x) as usize] {
-                    f(e);
-                }
+                f((y * nx + x) as usize);
             }
         };
         if ring == 0 {
@@ -173,6 +177,26 @@ impl SceneIndex {
         for y in cy - ring + 1..cy + ring {
             visit(cx - ring, y);
             visit(cx + ring, y);
+        }
+    }
+
+    /// The edges whose bounding box overlaps bucket `b`.
+    pub fn bucket_edges(&self, b: usize) -> &[u32] {
+        &self.buckets[b]
+    }
+
+    /// The greatest occluder height among bucket `b`'s edges.
+    pub fn bucket_height(&self, b: usize) -> f64 {
+        self.bucket_heights[b]
+    }
+
+    /// The square bucket `b` covers.
+    pub fn bucket_rect(&self, b: usize) -> Rect {
+        let nx = self.bucket_dims.0;
+        let min = self.bucket_origin + DVec2::new((b % nx) as f64, (b / nx) as f64) * self.bucket_size;
+        Rect {
+            min,
+            max: min + DVec2::splat(self.bucket_size),
         }
     }
 
@@ -207,7 +231,7 @@ fn bucket_coords(origin: DVec2, p: DVec2, nx: usize, ny: usize) -> (usize, usize
 /// Longest occluder edge piece: long walls are cut so that a short chain of
 /// pieces lies within a narrow band of distances from any eye, which keeps
 /// the horizon's distance ordering tight.
-const MAX_EDGE_PIECE: f64 = 6.0;
+pub const MAX_EDGE_PIECE: f64 = 6.0;
 
 fn collect_edges(occluders: &[Occluder]) -> Vec<OccluderEdge> {
     let mut edges = Vec::new();

@@ -18,7 +18,7 @@ use glam::DVec2;
 use super::bitset::ObjectSet;
 use super::cullmap::CullWindow;
 use super::horizon::Horizon;
-use super::index::SceneIndex;
+use super::index::{MAX_EDGE_PIECE, SceneIndex};
 use crate::model::{Rect, distance_to_segment};
 
 /// Default half-size in metres of the near-field cull map.
@@ -146,33 +146,48 @@ impl<'a> Solver<'a> {
             self.swept_rings += 1;
             let ring = self.swept_rings;
             let (stamp, eye) = (self.stamp, self.eye);
-            let (edge_stamp, chains) = (&mut self.edge_stamp, &mut self.chains);
-            index.edges_in_ring(v, ring, |e| {
-                if edge_stamp[e as usize] == stamp {
+            let (edge_stamp, chains, horizon) = (&mut self.edge_stamp, &mut self.chains, &self.horizon);
+            index.buckets_in_ring(v, ring, |bucket| {
+                let height = index.bucket_height(bucket);
+                if height <= eye {
                     return;
                 }
-                edge_stamp[e as usize] = stamp;
-                let edge = &index.edges[e as usize];
-                if edge.height <= eye {
-                    return;
-                }
-                let mut d_max = edge.a.distance(v);
-                let mut faces_eye = false;
-                let mut cur = e;
-                for _ in 0..CHAIN_EDGES {
-                    let c = &index.edges[cur as usize];
-                    d_max = d_max.max(c.b.distance(v));
-                    // The solid is on the edge's left: the eye sees the edge's
-                    // outside when it is on its right.
-                    faces_eye |= (c.b - c.a).perp_dot(v - c.a) < 0.0;
-                    cur = c.next;
-                }
-                // Every ray that crosses a ring enters it through an edge
-                // facing the eye, so chains of back faces add nothing the
-                // front faces don't already give (any subset of chains gives
-                // a valid, if lower, horizon).
-                if faces_eye {
-                    chains.push(Reverse((key(d_max), e)));
+                // Every chain that starts in this bucket lies within
+                // CHAIN_EDGES pieces of it and is no higher than the bucket's
+                // highest edge: if that is all below the horizon already, no
+                // chain of the bucket can raise it (the horizon only grows).
+                let reach = index.bucket_rect(bucket).grown(CHAIN_EDGES as f64 * MAX_EDGE_PIECE);
+                let hidden = horizon.hides_rect(v, eye, &reach, height);
+                for &e in index.bucket_edges(bucket) {
+                    if edge_stamp[e as usize] == stamp {
+                        continue;
+                    }
+                    edge_stamp[e as usize] = stamp;
+                    if hidden {
+                        continue;
+                    }
+                    let edge = &index.edges[e as usize];
+                    if edge.height <= eye {
+                        continue;
+                    }
+                    let mut d_max = edge.a.distance(v);
+                    let mut faces_eye = false;
+                    let mut cur = e;
+                    for _ in 0..CHAIN_EDGES {
+                        let c = &index.edges[cur as usize];
+                        d_max = d_max.max(c.b.distance(v));
+                        // The solid is on the edge's left: the eye sees the
+                        // edge's outside when it is on its right.
+                        faces_eye |= (c.b - c.a).perp_dot(v - c.a) < 0.0;
+                        cur = c.next;
+                    }
+                    // Every ray that crosses a ring enters it through an edge
+                    // facing the eye, so chains of back faces add nothing the
+                    // front faces don't already give (any subset of chains
+                    // gives a valid, if lower, horizon).
+                    if faces_eye {
+                        chains.push(Reverse((key(d_max), e)));
+                    }
                 }
             });
         }

@@ -1,0 +1,246 @@
+//! `citypvs verify`: read a city and a `.pvs` baked from it, judge sampled
+//! cells with the independent point-visibility check, print the verdict and
+//! exit 1 when some building seen from a cell is missing from its PVS.
+
+use std::collections::HashMap;
+use std::io::IsTerminal;
+use std::path::PathBuf;
+
+use clap::Args;
+use serde::Serialize;
+
+use super::common::InputArgs;
+use crate::input::read_city;
+use crate::pvs::PvsReader;
+use crate::verify::{
+    DEFAULT_CELLS, DEFAULT_SAMPLES, DEFAULT_SEED, VerifyOptions, VerifyReport, verify_with_progress,
+};
+use crate::{Error, Result};
+
+#[derive(Args, Debug)]
+pub struct VerifyArgs {
+    /// The city file the PVS was baked from.
+    pub city: PathBuf,
+    /// The .pvs file to check.
+    pub pvs: PathBuf,
+    #[command(flatten)]
+    pub input: InputArgs,
+    /// Number of cells to check, drawn at random.
+    #[arg(long, value_name = "K", default_value_t = DEFAULT_CELLS, conflicts_with = "all")]
+    pub cells: usize,
+    /// Check every cell.
+    #[arg(long)]
+    pub all: bool,
+    /// Viewpoints per cell: top corners, top edges, inside, and lower down.
+    #[arg(long, value_name = "N", default_value_t = DEFAULT_SAMPLES)]
+    pub samples: usize,
+    /// Seed for choosing cells and viewpoints.
+    #[arg(long, value_name = "S", default_value_t = DEFAULT_SEED)]
+    pub seed: u64,
+    /// Worker threads [default: all cores]. The verdict is the same for any number.
+    #[arg(long, value_name = "N")]
+    pub threads: Option<usize>,
+    /// No progress bar.
+    #[arg(long, short)]
+    pub quiet: bool,
+    /// Print everything as one JSON object.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// What `verify --json` prints.
+#[derive(Serialize)]
+struct Verdict<'a> {
+    city: String,
+    pvs: String,
+    /// True when the city file's SHA-256 equals the one stored in the PVS.
+    source_matches: bool,
+    /// The local frame all coordinates below are in.
+    frame: String,
+    buildings: usize,
+    threads: usize,
+    passed: bool,
+    #[serde(flatten)]
+    report: &'a VerifyReport,
+}
+
+pub fn run(args: &VerifyArgs) -> Result<i32> {
+    if args.samples == 0 {
+        return Err(Error::new("--samples must be at least 1"));
+    }
+    if args.cells == 0 && !args.all {
+        return Err(Error::new("--cells must be at least 1"));
+    }
+    let threads = args.threads.unwrap_or(0);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| Error::new(format!("cannot start {threads} worker threads: {e}")))?;
+    pool.install(|| run_in_pool(args, pool.current_num_threads()))
+}
+
+fn run_in_pool(args: &VerifyArgs, threads: usize) -> Result<i32> {
+    let city = read_city(&args.city, &args.input.options())?;
+    let pvs_name = args.pvs.display().to_string();
+    let reader = PvsReader::open(&args.pvs)?;
+    let info = reader.info();
+    if info.frame != city.frame {
+        return Err(Error::new(format!(
+            "{pvs_name}: baked in the frame \"{}\" but {} reads in \"{}\"; read the city with the flags the bake used",
+            info.frame.describe(),
+            args.city.display(),
+            city.frame.describe()
+        )));
+    }
+    let by_id: HashMap<&str, u32> = city
+        .buildings
+        .iter()
+        .enumerate()
+        .map(|(i, b)| (b.id.as_str(), i as u32))
+        .collect();
+    let object_to_building = reader
+        .object_ids()
+        .iter()
+        .enumerate()
+        .map(|(k, id)| {
+            by_id.get(id.as_str()).copied().ok_or_else(|| {
+                Error::new(format!(
+                    "{pvs_name}: object {k} (id {id}) is not a building of {}: wrong city or wrong file",
+                    args.city.display()
+                ))
+            })
+        })
+        .collect::<Result<Vec<u32>>>()?;
+    if object_to_building.len() != city.buildings.len() {
+        return Err(Error::new(format!(
+            "{pvs_name}: has {} objects but {} has {} buildings: wrong city or wrong file",
+            object_to_building.len(),
+            args.city.display(),
+            city.buildings.len()
+        )));
+    }
+    let visible = (0..reader.cell_count())
+        .map(|c| {
+            let mut set: Vec<u32> = reader
+                .visible(c)?
+                .into_iter()
+                .map(|o| object_to_building[o as usize])
+                .collect();
+            set.sort_unstable();
+            Ok(set)
+        })
+        .collect::<Result<Vec<_>>>()
+        .map_err(|e| e.context(&pvs_name))?;
+    let options = VerifyOptions {
+        cells: if args.all { None } else { Some(args.cells) },
+        samples: args.samples,
+        seed: args.seed,
+    };
+    let checked = options
+        .cells
+        .map_or(reader.cell_count(), |k| k.min(reader.cell_count()));
+    let bar = progress_bar(args.quiet, (checked * args.samples) as u64);
+    let tick = |n: u64| {
+        if let Some(b) = &bar {
+            b.inc(n)
+        }
+    };
+    let report = verify_with_progress(
+        &city.buildings,
+        reader.cell_triangles(),
+        info.eye_height,
+        &visible,
+        &options,
+        &tick,
+    );
+    if let Some(b) = &bar {
+        b.finish_and_clear();
+    }
+    let passed = report.violations.is_empty();
+    let verdict = Verdict {
+        city: args.city.display().to_string(),
+        pvs: pvs_name,
+        source_matches: info.source_hash == city.source_hash,
+        frame: info.frame.describe(),
+        buildings: city.buildings.len(),
+        threads,
+        passed,
+        report: &report,
+    };
+    if !verdict.source_matches {
+        eprintln!(
+            "warning: {} is not the file {} was baked from (SHA-256 differs)",
+            verdict.city, verdict.pvs
+        );
+    }
+    if args.json {
+        println!(
+            "{}",
+            serde_json::to_string(&verdict).expect("verdict serialises")
+        );
+    } else {
+        print_table(&verdict);
+    }
+    Ok(if passed { 0 } else { 1 })
+}
+
+fn progress_bar(quiet: bool, viewpoints: u64) -> Option<indicatif::ProgressBar> {
+    if quiet || !std::io::stderr().is_terminal() {
+        return None;
+    }
+    let bar = indicatif::ProgressBar::new(viewpoints);
+    let style = indicatif::ProgressStyle::with_template(
+        "{bar:40} {pos}/{len} viewpoints  {per_sec}  eta {eta}",
+    )
+    .expect("valid template");
+    bar.set_style(style);
+    Some(bar)
+}
+
+fn print_table(v: &Verdict) {
+    let r = v.report;
+    println!("verified {} against {}", v.pvs, v.city);
+    println!(
+        "cells          {} of {} (seed {})",
+        r.cells_checked, r.cells_total, r.seed
+    );
+    println!(
+        "viewpoints     {} ({} per cell, eye height {} m)",
+        r.viewpoints, r.samples_per_cell, r.eye_height
+    );
+    println!(
+        "tightness      mean {:.2}, worst {:.2} (|PVS| / buildings seen)",
+        r.mean_tightness, r.worst_tightness
+    );
+    println!(
+        "PVS seen       {:.1} % of the checked cells' PVS entries",
+        100.0 * r.seen_fraction
+    );
+    println!("rays           {}", r.rays);
+    println!("time           {:.2} s ({} threads)", r.seconds, v.threads);
+    if !r.blocked_viewpoints.is_empty() {
+        let b = &r.blocked_viewpoints[0];
+        println!(
+            "not judged     {} viewpoints inside buildings, e.g. in cell {}, {:.3} m inside {}",
+            r.blocked_viewpoints.len(),
+            b.cell,
+            b.depth,
+            b.building
+        );
+    }
+    println!("violations     {}", r.violations.len());
+    for x in &r.violations {
+        println!(
+            "  cell {} misses {}: seen from ({:.3}, {:.3}, {:.3}) at ({:.3}, {:.3}, {:.3})",
+            x.cell,
+            x.building,
+            x.viewpoint[0],
+            x.viewpoint[1],
+            x.viewpoint[2],
+            x.witness[0],
+            x.witness[1],
+            x.witness[2]
+        );
+    }
+    println!("{}", if v.passed { "PASS" } else { "FAIL" });
+}

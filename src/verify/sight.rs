@@ -1,0 +1,521 @@
+//! Exact visibility of buildings from one viewpoint, against the original
+//! footprints at their true heights.
+//!
+//! The azimuths of all footprint vertices, of the points where footprints of
+//! different buildings cross, and of a coarse fan cut the directions around
+//! the viewpoint into wedges. Inside one open wedge no ray passes such a
+//! point, so every ray crosses the same edges in the same order. In the
+//! vertical plane of a ray a building is a set of rectangles; the best point
+//! to see of one is the top of the wall the ray enters it by when it is at
+//! least as high as the eye, and otherwise the far end of its roof (or the
+//! foot of a taller building's wall standing on that roof). A sight line
+//! clears an earlier building iff it passes above that same kind of corner.
+//! So with elevations `(H - z) / distance` of those corners, a building is
+//! seen iff its elevation reaches every earlier occluding one's, and it is
+//! not inside a taller building there.
+//!
+//! The distance along direction `u` to an edge's line is `c / cross(u, e)`,
+//! so every elevation is a linear function of `u`. Writing `u = m + s m_perp`
+//! over the wedge (`m` its middle direction), elevations are straight lines
+//! in `s`, the running horizon is their upper envelope, and "seen somewhere in
+//! the wedge" is an exact test at the envelope's breakpoints. One ray per
+//! wedge (through its middle) finds the crossings; nothing between rays is
+//! sampled or missed.
+
+use glam::{DVec2, DVec3};
+
+use super::edges::{Crossing, EdgeGrid, RayScratch};
+use super::envelope::{Envelope, Line};
+use crate::model::{
+    Building, Rect, distance_to_segment, multipolygon_bounds, point_in_multipolygon, polygon_edges,
+};
+
+/// Extra wedge boundaries, evenly spaced, so that no wedge is wider than
+/// 2 pi / FAN_DIRECTIONS (the `s` parameter stays small).
+const FAN_DIRECTIONS: usize = 16;
+/// Wedges narrower than this (radians) are left out: they lie between two
+/// azimuths equal up to rounding, and each neighbour's closed wedge already
+/// includes their boundary directions.
+const MIN_WEDGE: f64 = 1e-11;
+/// An elevation for an edge whose line passes through the viewpoint.
+const HUGE_ELEVATION: f64 = 1e30;
+/// A viewpoint inside an occluding building by at most this much (metres)
+/// is moved out of it: cell edges run along footprint outlines, and the
+/// two may differ by rounding.
+pub const MAX_SNAP: f64 = 1e-3;
+/// How far outside the outline a moved viewpoint is put (metres).
+const SNAP_CLEARANCE: f64 = 1e-6;
+
+/// One building seen from a viewpoint, and a point of it that is seen.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sighting {
+    pub building: u32,
+    pub witness: DVec3,
+}
+
+/// What one viewpoint sees.
+#[derive(Clone, Debug, PartialEq)]
+pub enum View {
+    /// The buildings seen, ascending by building index, from `from` (the
+    /// viewpoint, or the point within [`MAX_SNAP`] outside a building it was
+    /// moved to).
+    Seen {
+        from: DVec3,
+        sightings: Vec<Sighting>,
+        rays: u64,
+    },
+    /// The viewpoint is inside this occluding building, deeper than
+    /// [`MAX_SNAP`] (`depth`: its distance to the outline): nothing can be
+    /// judged.
+    InsideBuilding { building: u32, depth: f64 },
+}
+
+/// The judge's view of the city: buildings, their edges in a grid, and their
+/// vertices.
+#[derive(Debug)]
+pub struct Judge<'a> {
+    buildings: &'a [Building],
+    grid: EdgeGrid,
+    /// Every footprint vertex with its building.
+    vertices: Vec<(DVec2, u32)>,
+    /// Where edges of different buildings cross (overlapping footprints):
+    /// the order of crossings along a ray changes there too.
+    overlaps: Vec<DVec2>,
+    bounds: Vec<Rect>,
+}
+
+/// Per-thread working memory of [`Judge::view`].
+#[derive(Debug, Default)]
+pub struct Scratch {
+    ray: RayScratch,
+    envelope: Envelope,
+    azimuths: Vec<f64>,
+    farthest: Vec<f64>,
+    beyond: Vec<(f64, f64)>,
+    seen: Vec<Option<DVec3>>,
+    /// Buildings the ray is inside of: (building, edge it entered by).
+    open: Vec<(u32, Option<u32>)>,
+}
+
+/// The point of `building`'s outline nearest to `p`, the distance, and the
+/// direction from the solid towards the outside there.
+fn nearest_outline_point(building: &Building, p: DVec2) -> (DVec2, f64, DVec2) {
+    let mut best = (p, f64::INFINITY, DVec2::X);
+    for poly in &building.footprint {
+        for (a, b) in polygon_edges(poly) {
+            let e = b - a;
+            let len2 = e.length_squared();
+            if len2 == 0.0 {
+                continue;
+            }
+            let t = ((p - a).dot(e) / len2).clamp(0.0, 1.0);
+            let foot = a + e * t;
+            let d = foot.distance(p);
+            if d < best.1 {
+                // Exteriors run counter-clockwise and holes clockwise, so the
+                // solid is on the left of every edge: outside is to the right.
+                let right = DVec2::new(e.y, -e.x).normalize();
+                let outward = if d > 1e-12 { (foot - p) / d } else { right };
+                best = (foot, d, outward);
+            }
+        }
+    }
+    best
+}
+
+/// One wedge of directions being judged.
+struct Wedge {
+    origin: DVec2,
+    z: f64,
+    mid: DVec2,
+    perp: DVec2,
+}
+
+impl Wedge {
+    /// The elevation `dh / distance` of the line of `edge`, as a line in `s`.
+    fn elevation(&self, grid: &EdgeGrid, edge: u32, dh: f64) -> Line {
+        let e = &grid.edges[edge as usize];
+        let along = e.b - e.a;
+        let c = (e.a - self.origin).perp_dot(along);
+        if c.abs() <= 1e-300 {
+            return Line {
+                at0: dh.signum() * HUGE_ELEVATION,
+                slope: 0.0,
+            };
+        }
+        Line {
+            at0: dh * self.mid.perp_dot(along) / c,
+            slope: dh * self.perp.perp_dot(along) / c,
+        }
+    }
+
+    /// The point where the ray of parameter `s` meets the line of `edge`, at height `h`.
+    fn point_on(&self, grid: &EdgeGrid, edge: u32, s: f64, h: f64) -> DVec3 {
+        let e = &grid.edges[edge as usize];
+        let along = e.b - e.a;
+        let u = (self.mid + self.perp * s).normalize();
+        let t = (e.a - self.origin).perp_dot(along) / u.perp_dot(along);
+        let p = self.origin + u * t;
+        DVec3::new(p.x, p.y, h)
+    }
+}
+
+impl<'a> Judge<'a> {
+    pub fn new(buildings: &'a [Building]) -> Judge<'a> {
+        let grid = EdgeGrid::new(buildings);
+        let vertices = buildings
+            .iter()
+            .enumerate()
+            .flat_map(|(i, b)| {
+                b.footprint.iter().flat_map(move |p| {
+                    std::iter::once(&p.exterior)
+                        .chain(p.holes.iter())
+                        .flat_map(move |r| r.iter().map(move |v| (*v, i as u32)))
+                })
+            })
+            .collect();
+        let bounds = buildings
+            .iter()
+            .map(|b| multipolygon_bounds(&b.footprint))
+            .collect();
+        let overlaps = grid.crossings_between_buildings();
+        Judge {
+            buildings,
+            grid,
+            vertices,
+            overlaps,
+            bounds,
+        }
+    }
+
+    /// Every building seen from `viewpoint`, each with a point of it seen.
+    pub fn view(&self, viewpoint: DVec3, scratch: &mut Scratch) -> View {
+        let origin = match self.free_position(viewpoint.truncate()) {
+            Ok(p) => p,
+            Err((building, depth)) => return View::InsideBuilding { building, depth },
+        };
+        let z = viewpoint.z;
+        let n = self.buildings.len();
+        scratch.seen.clear();
+        scratch.seen.resize(n, None);
+        let mut lifted_around = Vec::new();
+        for (i, b) in self.buildings.iter().enumerate() {
+            if !b.occludes && self.contains(i, origin) {
+                // Standing under a lifted part: it is overhead, hence seen.
+                lifted_around.push(i as u32);
+                scratch.seen[i] = Some(DVec3::new(origin.x, origin.y, b.height));
+            }
+        }
+        self.collect_azimuths(origin, scratch);
+        let beyond = std::mem::take(&mut scratch.beyond);
+        let azimuths = std::mem::take(&mut scratch.azimuths);
+        let mut rays = 0u64;
+        for (k, &a0) in azimuths.iter().enumerate() {
+            let a1 = match azimuths.get(k + 1) {
+                Some(&a) => a,
+                None => azimuths[0] + std::f64::consts::TAU,
+            };
+            let width = a1 - a0;
+            if width < MIN_WEDGE {
+                continue;
+            }
+            let centre = a0 + 0.5 * width;
+            let mid = DVec2::new(centre.cos(), centre.sin());
+            let wedge = Wedge {
+                origin,
+                z,
+                mid,
+                perp: mid.perp(),
+            };
+            let reach = (0.5 * width).tan();
+            scratch.envelope.reset(-reach, reach);
+            scratch.open.clear();
+            scratch
+                .open
+                .extend(lifted_around.iter().map(|&b| (b, None)));
+            rays += 1;
+            self.judge_wedge(&wedge, &beyond, scratch);
+        }
+        scratch.beyond = beyond;
+        scratch.azimuths = azimuths;
+        let sightings = scratch
+            .seen
+            .iter()
+            .enumerate()
+            .filter_map(|(i, w)| {
+                w.map(|witness| Sighting {
+                    building: i as u32,
+                    witness,
+                })
+            })
+            .collect();
+        View::Seen {
+            from: origin.extend(z),
+            sightings,
+            rays,
+        }
+    }
+
+    fn contains(&self, building: usize, p: DVec2) -> bool {
+        let r = &self.bounds[building];
+        r.min.x <= p.x
+            && p.x <= r.max.x
+            && r.min.y <= p.y
+            && p.y <= r.max.y
+            && point_in_multipolygon(p, &self.buildings[building].footprint)
+    }
+
+    /// `p`, or a point just outside the occluding building(s) it lies in
+    /// if that is within [`MAX_SNAP`]; otherwise the building and the depth.
+    fn free_position(&self, p: DVec2) -> Result<DVec2, (u32, f64)> {
+        let mut q = p;
+        for _ in 0..4 {
+            let Some(b) = (0..self.buildings.len())
+                .find(|&i| self.buildings[i].occludes && self.contains(i, q))
+            else {
+                return Ok(q);
+            };
+            let (foot, depth, outward) = nearest_outline_point(&self.buildings[b], q);
+            if q.distance(p) + depth > MAX_SNAP {
+                return Err((b as u32, depth));
+            }
+            q = foot + outward * SNAP_CLEARANCE;
+        }
+        let b = (0..self.buildings.len())
+            .find(|&i| self.buildings[i].occludes && self.contains(i, q))
+            .unwrap_or(0);
+        Err((b as u32, q.distance(p)))
+    }
+
+    /// Sorted vertex azimuths plus the fan into `scratch.azimuths`, and in
+    /// `scratch.beyond` (distance, greatest height of the buildings reaching
+    /// at least that far) ascending by distance.
+    fn collect_azimuths(&self, origin: DVec2, scratch: &mut Scratch) {
+        let az = &mut scratch.azimuths;
+        az.clear();
+        scratch.farthest.clear();
+        scratch.farthest.resize(self.buildings.len(), 0.0);
+        for &(v, b) in &self.vertices {
+            let d = v - origin;
+            let d2 = d.length_squared();
+            if d2 > 1e-24 {
+                az.push(d.y.atan2(d.x));
+            }
+            let f = &mut scratch.farthest[b as usize];
+            *f = f.max(d2);
+        }
+        for &v in &self.overlaps {
+            let d = v - origin;
+            if d.length_squared() > 1e-24 {
+                az.push(d.y.atan2(d.x));
+            }
+        }
+        az.extend((0..FAN_DIRECTIONS).map(|k| {
+            -std::f64::consts::PI + std::f64::consts::TAU * k as f64 / FAN_DIRECTIONS as f64
+        }));
+        az.sort_by(f64::total_cmp);
+        az.dedup();
+        let beyond = &mut scratch.beyond;
+        beyond.clear();
+        beyond.extend(
+            scratch
+                .farthest
+                .iter()
+                .zip(self.buildings)
+                .map(|(d2, b)| (d2.sqrt(), b.height)),
+        );
+        beyond.sort_by(|a, b| a.0.total_cmp(&b.0));
+        for i in (0..beyond.len().saturating_sub(1)).rev() {
+            beyond[i].1 = beyond[i].1.max(beyond[i + 1].1);
+        }
+    }
+
+    /// Walk the wedge's middle ray and judge every building on it over the
+    /// whole wedge, crossing by crossing.
+    fn judge_wedge(&self, wedge: &Wedge, beyond: &[(f64, f64)], scratch: &mut Scratch) {
+        let Scratch {
+            ray,
+            envelope,
+            seen,
+            open,
+            ..
+        } = scratch;
+        // Index into `beyond` of the last distance looked up (MAX: none yet,
+        // search); distances along a ray mostly grow, so later lookups walk
+        // from here.
+        let mut cursor = usize::MAX;
+        self.grid
+            .walk(wedge.origin, wedge.mid, ray, |batch: &[Crossing]| {
+                for c in batch {
+                    match open.iter().position(|o| o.0 == c.building) {
+                        None => self.enter(wedge, c, open, envelope, seen),
+                        Some(i) => {
+                            let (b, near) = open.swap_remove(i);
+                            if near.is_some() {
+                                self.leave(wedge, b, c.edge, open, envelope, seen);
+                            }
+                        }
+                    }
+                }
+                let last = batch.last().map(|c| c.edge);
+                !self.nothing_more_to_see(wedge, last, envelope, beyond, &mut cursor)
+            });
+    }
+
+    /// The ray enters building `c.building` through edge `c.edge`.
+    ///
+    /// A building at least as high as the eye is seen, if at all, at the top
+    /// of the wall it is entered by; it is judged here, then raises the
+    /// horizon (its wall top is the worse end for every sight line beyond).
+    /// A lower building still open here whose roof runs into this taller
+    /// one is judged at the foot of this wall on its roof (the far end of
+    /// that stretch of roof).
+    fn enter(
+        &self,
+        wedge: &Wedge,
+        c: &Crossing,
+        open: &mut Vec<(u32, Option<u32>)>,
+        envelope: &mut Envelope,
+        seen: &mut [Option<DVec3>],
+    ) {
+        let b = &self.buildings[c.building as usize];
+        if b.occludes {
+            for k in 0..open.len() {
+                let target = open[k].0;
+                let t = &self.buildings[target as usize];
+                if open[k].1.is_some()
+                    && seen[target as usize].is_none()
+                    && t.height < wedge.z
+                    && t.height < b.height
+                {
+                    self.judge_roof_point(wedge, target, c.edge, open, envelope, seen);
+                }
+            }
+        }
+        let dh = b.height - wedge.z;
+        if dh >= 0.0 {
+            let line = wedge.elevation(&self.grid, c.edge, dh);
+            self.judge(wedge, c.building, c.edge, &line, envelope, seen);
+            if b.occludes {
+                envelope.insert(line);
+            }
+        }
+        open.push((c.building, Some(c.edge)));
+    }
+
+    /// The ray leaves `building` through edge `far` (already removed from
+    /// `open`). A building lower than the eye is seen, if at all, at the far
+    /// end of its roof; judged here, then it raises the horizon.
+    fn leave(
+        &self,
+        wedge: &Wedge,
+        building: u32,
+        far: u32,
+        open: &[(u32, Option<u32>)],
+        envelope: &mut Envelope,
+        seen: &mut [Option<DVec3>],
+    ) {
+        let b = &self.buildings[building as usize];
+        let dh = b.height - wedge.z;
+        if dh < 0.0 {
+            if seen[building as usize].is_none() {
+                self.judge_roof_point(wedge, building, far, open, envelope, seen);
+            }
+            if b.occludes {
+                envelope.insert(wedge.elevation(&self.grid, far, dh));
+            }
+        }
+    }
+
+    /// Judge the roof of `target` (lower than the eye) at the ray's crossing
+    /// with `edge`: hidden there if that point lies inside a higher
+    /// occluding building the ray is in (overlapping footprints), otherwise
+    /// seen if it rises above the horizon somewhere in the wedge.
+    fn judge_roof_point(
+        &self,
+        wedge: &Wedge,
+        target: u32,
+        edge: u32,
+        open: &[(u32, Option<u32>)],
+        envelope: &Envelope,
+        seen: &mut [Option<DVec3>],
+    ) {
+        let h = self.buildings[target as usize].height;
+        let buried = open.iter().any(|&(j, near)| {
+            let o = &self.buildings[j as usize];
+            j != target && near.is_some() && o.occludes && o.height > h
+        });
+        if !buried {
+            let line = wedge.elevation(&self.grid, edge, h - wedge.z);
+            self.judge(wedge, target, edge, &line, envelope, seen);
+        }
+    }
+
+    /// Mark `building` seen if its elevation `line` (of a point on `edge`)
+    /// reaches the horizon somewhere in the wedge.
+    fn judge(
+        &self,
+        wedge: &Wedge,
+        building: u32,
+        edge: u32,
+        line: &Line,
+        envelope: &Envelope,
+        seen: &mut [Option<DVec3>],
+    ) {
+        if seen[building as usize].is_some() {
+            return;
+        }
+        let (s, margin) = envelope.best_against(line);
+        if margin >= 0.0 {
+            let h = self.buildings[building as usize].height;
+            seen[building as usize] = Some(wedge.point_on(&self.grid, edge, s, h));
+        }
+    }
+
+    /// True when the horizon already hides everything the rest of the wedge
+    /// can hold: every point still to be judged lies beyond the last edge
+    /// crossed, on a building reaching at least that far, and is
+    /// no higher than the highest such building.
+    fn nothing_more_to_see(
+        &self,
+        wedge: &Wedge,
+        last: Option<u32>,
+        envelope: &Envelope,
+        beyond: &[(f64, f64)],
+        cursor: &mut usize,
+    ) -> bool {
+        let Some(last) = last else {
+            return false;
+        };
+        if envelope.is_empty() {
+            return false;
+        }
+        let edge = &self.grid.edges[last as usize];
+        // Every ray of the wedge crosses the edge itself, so what lies
+        // beyond is at least as far as the nearest point of the edge.
+        let nearest = distance_to_segment(wedge.origin, edge.a, edge.b);
+        let mut i = if *cursor == usize::MAX {
+            beyond.partition_point(|&(d, _)| d < nearest)
+        } else {
+            *cursor
+        };
+        while i > 0 && beyond[i - 1].0 >= nearest {
+            i -= 1;
+        }
+        while i < beyond.len() && beyond[i].0 < nearest {
+            i += 1;
+        }
+        *cursor = i;
+        let Some(&(_, highest)) = beyond.get(i) else {
+            return true;
+        };
+        let dh = highest - wedge.z;
+        if dh <= 0.0 {
+            return envelope.strictly_above(&Line {
+                at0: 0.0,
+                slope: 0.0,
+            });
+        }
+        envelope.strictly_above(&wedge.elevation(&self.grid, last, dh))
+    }
+}
