@@ -95,6 +95,19 @@ fn chosen_cell_shows_visible_and_culled_buildings_apart() {
 }
 
 #[test]
+fn one_cell_computed_alone_sees_what_the_bake_gives_it() {
+    let scene = street();
+    let p = params(&scene);
+    let all = compute_pvs(&scene, &p, &|_| {}).unwrap();
+    for c in 0..scene.cells.triangles.len() {
+        assert_eq!(
+            Focus::compute(&scene, &p, c).unwrap().visible,
+            all.visible[c]
+        );
+    }
+}
+
+#[test]
 fn colours_follow_the_given_visible_set() {
     let scene = street();
     // A set as if read from a .pvs file: only the house.
@@ -218,6 +231,18 @@ fn whole_city_map_shades_taller_buildings_darker() {
         })
         .count();
     assert!(inked > 200, "{inked} dark pixels in the legend");
+    // The narrowest picture still has its map and legend.
+    let small = render(&Picture {
+        width: citypvs::render::MIN_SIZE,
+        ..picture(&scene)
+    })
+    .unwrap();
+    assert_eq!(small.pixmap.width(), citypvs::render::MIN_SIZE);
+    assert!(small.pixmap.height() > small.viewport.height);
+    assert_eq!(
+        at(&small, centre(&scene, WALL)),
+        palette::HEIGHT_RAMP.step(1.0)
+    );
 }
 
 #[test]

@@ -33,8 +33,8 @@ pub use viewport::Viewport;
 pub const DEFAULT_SIZE: u32 = 1600;
 /// Narrowest picture width that keeps the legend legible.
 pub const MIN_SIZE: u32 = 200;
-/// Widest picture width accepted.
-pub const MAX_SIZE: u32 = 16_000;
+/// Widest picture width accepted (a map up to twice as tall takes 0.5 GB).
+pub const MAX_SIZE: u32 = 8_000;
 
 /// Everything one picture shows.
 #[derive(Clone, Copy, Debug)]
@@ -94,6 +94,7 @@ pub fn scene_bounds(scene: &Scene) -> Rect {
 }
 
 /// The square of half-size `radius` metres around the centre of `cell`.
+/// Panics if `cell` is not a cell of the scene.
 pub fn view_around(scene: &Scene, cell: usize, radius: f64) -> Rect {
     let t = scene.cells.triangles[cell];
     let centre = (t[0] + t[1] + t[2]) / 3.0;
