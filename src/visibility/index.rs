@@ -17,6 +17,8 @@ pub struct OccluderEdge {
     pub height: f64,
     /// Index of the next edge along the same ring.
     pub next: u32,
+    /// Position of this piece along its ring (0 for the ring's first piece).
+    pub ring_pos: u32,
 }
 
 /// The pixel grid shared by every cull map: pixel (i, j) covers
@@ -239,6 +241,7 @@ fn collect_edges(occluders: &[Occluder]) -> Vec<OccluderEdge> {
         for polygon in &occ.shape {
             for ring in std::iter::once(&polygon.exterior).chain(polygon.holes.iter()) {
                 let start = edges.len() as u32;
+                let mut ring_pos = 0;
                 for (i, &a) in ring.iter().enumerate() {
                     let b = ring[(i + 1) % ring.len()];
                     let pieces = (a.distance(b) / MAX_EDGE_PIECE).ceil().max(1.0) as usize;
@@ -251,7 +254,9 @@ fn collect_edges(occluders: &[Occluder]) -> Vec<OccluderEdge> {
                             b: q,
                             height: occ.height,
                             next,
+                            ring_pos,
                         });
+                        ring_pos += 1;
                     }
                 }
                 // Close the ring: the last piece continues with the first.

@@ -24,9 +24,21 @@ use crate::model::{Rect, distance_to_segment};
 /// Default half-size in metres of the near-field cull map.
 pub const DEFAULT_NEAR_FIELD: f64 = 48.0;
 
-/// Edges in each occluder chain fed to the horizon: two, so that the bins
-/// around their shared vertex are covered.
-const CHAIN_EDGES: usize = 2;
+/// Chains fed to the horizon start at every `stride`-th piece of a ring and
+/// hold `stride + 1` pieces, so consecutive chains share a piece and the bins
+/// around every vertex lie inside some chain's arc. Far away a longer chain
+/// costs little in tightness (its pieces are a small angle) and saves the
+/// per-chain work; the stride is 1 near the eye and grows with distance.
+fn chain_stride(distance: f64) -> u32 {
+    match distance {
+        d if d < 96.0 => 1,
+        d if d < 192.0 => 2,
+        _ => 4,
+    }
+}
+
+/// The most pieces a chain holds.
+const MAX_CHAIN_PIECES: u32 = 5;
 
 /// Something waiting in the nearest-first queue.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
@@ -52,7 +64,7 @@ pub struct Solver<'a> {
     stamp: u32,
     gathered: Vec<(f64, u32)>,
     queue: BinaryHeap<Reverse<(u64, Item)>>,
-    chains: BinaryHeap<Reverse<(u64, u32)>>,
+    chains: BinaryHeap<Reverse<(u64, u32, u32)>>,
     /// Edge buckets already swept into `chains`, as a Chebyshev ring radius.
     swept_rings: i64,
 }
@@ -147,33 +159,32 @@ impl<'a> Solver<'a> {
             let ring = self.swept_rings;
             let (stamp, eye) = (self.stamp, self.eye);
             let (edge_stamp, chains, horizon) = (&mut self.edge_stamp, &mut self.chains, &self.horizon);
+            let stride = chain_stride((ring - 1).max(0) as f64 * index.bucket_size());
             index.buckets_in_ring(v, ring, |bucket| {
                 let height = index.bucket_height(bucket);
                 if height <= eye {
                     return;
                 }
                 // Every chain that starts in this bucket lies within
-                // CHAIN_EDGES pieces of it and is no higher than the bucket's
-                // highest edge: if that is all below the horizon already, no
-                // chain of the bucket can raise it (the horizon only grows).
-                let reach = index.bucket_rect(bucket).grown(CHAIN_EDGES as f64 * MAX_EDGE_PIECE);
-                let hidden = horizon.hides_rect(v, eye, &reach, height);
+                // MAX_CHAIN_PIECES pieces of it and is no higher than the
+                // bucket's highest edge: if that is all below the horizon
+                // already, no chain of the bucket can raise it (the horizon
+                // only grows).
+                let reach = index.bucket_rect(bucket).grown(MAX_CHAIN_PIECES as f64 * MAX_EDGE_PIECE);
+                if horizon.hides_rect(v, eye, &reach, height) {
+                    return;
+                }
                 for &e in index.bucket_edges(bucket) {
-                    if edge_stamp[e as usize] == stamp {
+                    let edge = &index.edges[e as usize];
+                    if edge.ring_pos % stride != 0 || edge.height <= eye || edge_stamp[e as usize] == stamp {
                         continue;
                     }
                     edge_stamp[e as usize] = stamp;
-                    if hidden {
-                        continue;
-                    }
-                    let edge = &index.edges[e as usize];
-                    if edge.height <= eye {
-                        continue;
-                    }
+                    let pieces = stride + 1;
                     let mut d_max = edge.a.distance(v);
                     let mut faces_eye = false;
                     let mut cur = e;
-                    for _ in 0..CHAIN_EDGES {
+                    for _ in 0..pieces {
                         let c = &index.edges[cur as usize];
                         d_max = d_max.max(c.b.distance(v));
                         // The solid is on the edge's left: the eye sees the
@@ -186,12 +197,12 @@ impl<'a> Solver<'a> {
                     // front faces don't already give (any subset of chains
                     // gives a valid, if lower, horizon).
                     if faces_eye {
-                        chains.push(Reverse((key(d_max), e)));
+                        chains.push(Reverse((key(d_max), e, pieces)));
                     }
                 }
             });
         }
-        while let Some(&Reverse((k, e))) = self.chains.peek() {
+        while let Some(&Reverse((k, e, pieces))) = self.chains.peek() {
             if f64::from_bits(k) >= r {
                 break;
             }
@@ -200,7 +211,7 @@ impl<'a> Solver<'a> {
             let mut cur = e;
             let mut count = 0;
             let chain = std::iter::once(edge.a).chain(std::iter::from_fn(|| {
-                if count >= CHAIN_EDGES {
+                if count >= pieces {
                     return None;
                 }
                 count += 1;
