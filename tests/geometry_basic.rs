@@ -90,10 +90,11 @@ fn erosion_keeps_clear_of_reflex_corners_and_courtyards() {
         );
         assert!(boundary_distance(p, &b.footprint) >= 2.0 - 1e-9, "{p}");
     }
-    // Exact erosion area: 36^2 - (16 + 4)^2 + (4 - pi) * 2^2 corners.
+    // Exact erosion area: 36^2 - (16 + 4)^2 + (4 - pi) * 2^2 corners. The
+    // margin costs about 0.22 m2, the two-sided corner wedges 4 x 0.17 m2.
     let exact = 36.0f64 * 36.0 - 20.0 * 20.0 + (4.0 - std::f64::consts::PI) * 4.0;
     let got = multipolygon_area(&eroded);
-    assert!(got < exact && got > exact - 0.5, "{got} vs {exact}");
+    assert!(got < exact && got > exact - 1.0, "{got} vs {exact}");
 }
 
 #[test]
@@ -109,4 +110,37 @@ fn shrink_drops_thin_levels() {
     assert_eq!(occluders.len(), 1);
     assert_eq!(occluders[0].level, 0);
     assert_eq!(occluders[0].height, 10.0);
+}
+
+#[test]
+fn same_blocks_occluders_and_cells_for_any_thread_count() {
+    use citypvs::cells::{CellParams, triangulate};
+    use citypvs::generate::{GenerateParams, generate_buildings};
+    let buildings: Vec<Building> = generate_buildings(&GenerateParams {
+        buildings: 300,
+        seed: 3,
+    })
+    .into_iter()
+    .map(|b| Building {
+        id: b.id,
+        footprint: vec![b.footprint],
+        height: b.height,
+        occludes: true,
+    })
+    .collect();
+    let run = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| {
+                let blocks = merge_blocks(&buildings);
+                let occluders = shrink_blocks(&blocks, 1.0);
+                let cells = triangulate(&blocks, &CellParams::default()).unwrap();
+                format!("{blocks:?}{occluders:?}{:?}", cells.triangles)
+            })
+    };
+    let one = run(1);
+    assert_eq!(one, run(3));
+    assert_eq!(one, run(8));
 }

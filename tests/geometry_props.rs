@@ -9,14 +9,14 @@ use citypvs::geometry::{EROSION_SAFETY_MARGIN, erode, merge_blocks};
 use citypvs::model::{MultiPolygon, Polygon, multipolygon_area, point_in_multipolygon};
 use glam::DVec2;
 use proptest::prelude::*;
-use rand::SeedableRng;
+use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use scenes::{assert_model_polygons, boundary_distance, box_points, edge_points, scene};
 
 /// How far beyond eps + margin the polygonal cut may reach: the corner
-/// polygons' vertices lie at radius / cos(pi / 16).
+/// wedges' vertices lie at radius / cos(pi / 8).
 fn cut_reach(eps: f64) -> f64 {
-    (eps + EROSION_SAFETY_MARGIN) / (std::f64::consts::PI / 16.0).cos() + 1e-6
+    (eps + EROSION_SAFETY_MARGIN) / (std::f64::consts::PI / 8.0).cos() + 1e-6
 }
 
 /// Every sample point of the eroded area is inside the original and at
@@ -65,6 +65,16 @@ proptest! {
         for b in &scene.buildings {
             check_erosion(&b.footprint, eps, &mut rng);
         }
+        // ... convex polygons with vertices on a circle ...
+        let n = 3 + (seed % 12) as usize;
+        let mut angles: Vec<f64> = (0..n).map(|_| rng.random_range(0.0..std::f64::consts::TAU)).collect();
+        angles.sort_by(f64::total_cmp);
+        let radius = rng.random_range(1.0..30.0);
+        let convex = vec![Polygon {
+            exterior: angles.iter().map(|&a| DVec2::from_angle(a) * radius).collect(),
+            holes: vec![],
+        }];
+        check_erosion(&convex, eps, &mut rng);
         // ... and every level of every block (unions with shared walls).
         for block in merge_blocks(&scene.buildings) {
             for level in &block.levels {

@@ -20,9 +20,9 @@ fn both_versions_read_the_same_buildings() {
         let city = read_city(&fixture(file), &InputOptions::default()).unwrap();
         let ids: Vec<&str> = city.buildings.iter().map(|b| b.id.as_str()).collect();
         // "hall" has no geometry of its own (its parts carry it); the tree is not a building.
-        assert_eq!(ids, ["hall-a", "hall-b", "house-1"], "{file}");
+        assert_eq!(ids, ["hall-a", "hall-b", "hall-c", "house-1"], "{file}");
         assert!(city.report.skipped.is_empty(), "{:?}", city.report.skipped);
-        assert_eq!(city.report.features_read, 4);
+        assert_eq!(city.report.features_read, 5);
         assert_eq!(
             city.frame,
             Frame::Metric {
@@ -32,7 +32,8 @@ fn both_versions_read_the_same_buildings() {
         );
         let heights: Vec<f64> = city.buildings.iter().map(|b| b.height).collect();
         // hall-b: its LoD 2.2 gable roof reaches 15 m (the LoD 1 block only 9 m).
-        for (h, want) in heights.iter().zip([6.0, 15.0, 12.0]) {
+        // hall-c: a bridge from 6 m to 9 m above the hall's ground.
+        for (h, want) in heights.iter().zip([6.0, 15.0, 9.0, 12.0]) {
             assert!((h - want).abs() < 1e-9, "{file}: {heights:?}");
         }
         let areas: Vec<f64> = city
@@ -40,11 +41,13 @@ fn both_versions_read_the_same_buildings() {
             .iter()
             .map(|b| multipolygon_area(&b.footprint))
             .collect();
-        for (a, want) in areas.iter().zip([200.0, 200.0, 100.0]) {
+        for (a, want) in areas.iter().zip([200.0, 200.0, 100.0, 100.0]) {
             assert!((a - want).abs() < 1e-6, "{file}: {areas:?}");
         }
         // house-1 (no semantics: its lowest surface) sits at the file's 490000, 6700000.
-        let house = multipolygon_bounds(&city.buildings[2].footprint);
+        let occludes: Vec<bool> = city.buildings.iter().map(|b| b.occludes).collect();
+        assert_eq!(occludes, [true, true, false, true], "{file}");
+        let house = multipolygon_bounds(&city.buildings[3].footprint);
         assert!(
             (house.min - DVec2::new(-20.0, -15.0)).length() < 1e-9,
             "{house:?}"
@@ -60,7 +63,7 @@ fn both_versions_read_the_same_buildings() {
 fn detected_by_content_and_forced_format_is_checked() {
     let bytes = std::fs::read(fixture("small-2.0.city.json")).unwrap();
     let city = read_city_bytes(&bytes, "city.json", &InputOptions::default()).unwrap();
-    assert_eq!(city.buildings.len(), 3);
+    assert_eq!(city.buildings.len(), 4);
     let forced = InputOptions {
         format: Some(Format::Geojson),
         ..InputOptions::default()

@@ -178,3 +178,13 @@ fn missing_file() {
         String::from_utf8_lossy(&run.stderr).contains("/nonexistent/city.geojson: cannot read")
     );
 }
+
+#[test]
+fn coordinates_that_are_not_numbers() {
+    let bad = feature("s", "", "\"25.0\"", "60.0");
+    let m = bake_error("strings.geojson", &collection(&[&good("a"), &bad]), &[]);
+    assert_mentions(&m, &["not valid GeoJSON", "line 3", "column"]);
+    let short = "{\"type\":\"Feature\",\"id\":\"p1\",\"properties\":{},\"geometry\":{\"type\":\"Polygon\",\"coordinates\":[[[25.0],[25.1,60.0],[25.1,60.1],[25.0]]]}}";
+    let m = bake_error("short.geojson", &collection(&[short]), &[]);
+    assert_mentions(&m, &["two numbers", "line 2"]);
+}

@@ -35,7 +35,7 @@ fn content_wins_over_a_misleading_extension() {
     assert_eq!(pbf.buildings.len(), 2171);
     assert_eq!(sorted_ids(&pbf), sorted_ids(&json));
     let city = read_city_bytes(&fixture("input/small-2.0.city.json"), "x.json", &options).unwrap();
-    assert_eq!(city.buildings.len(), 3);
+    assert_eq!(city.buildings.len(), 4);
 }
 
 #[test]

@@ -74,9 +74,10 @@ fn assert_model_conventions(city: &citypvs::input::City) {
 
 #[test]
 fn generated_city_reads_without_repairs() {
+    // The embedded default city of `citypvs bake`.
     let params = GenerateParams {
-        buildings: 400,
-        seed: 7,
+        buildings: citypvs::cli::bake::DEFAULT_CITY_BUILDINGS,
+        seed: citypvs::cli::bake::DEFAULT_CITY_SEED,
     };
     let text = generate_geojson(&params);
     let expected = generate_buildings(&params);
@@ -178,6 +179,27 @@ fn heights_from_numbers_text_levels_and_default() {
         assert!((h - w).abs() < 1e-9, "{heights:?}");
     }
     assert!(city.buildings.iter().all(|b| b.occludes));
+
+    // A lifted part (min_height > 0) is an object but not an occluder.
+    let lifted = [
+        polygon_feature(
+            "\"bridge\"",
+            "\"height\":14,\"min_height\":\"8 m\"",
+            &square(25.0, 60.0, 0.0001),
+        ),
+        polygon_feature(
+            "\"ground\"",
+            "\"height\":14,\"min_height\":0",
+            &square(25.001, 60.0, 0.0001),
+        ),
+    ];
+    let city = read(&collection(&lifted)).unwrap();
+    let occludes: Vec<(f64, bool)> = city
+        .buildings
+        .iter()
+        .map(|b| (b.height, b.occludes))
+        .collect();
+    assert_eq!(occludes, [(14.0, false), (14.0, true)]);
 }
 
 #[test]

@@ -220,6 +220,11 @@ mod pbf {
     }
 }
 
+/// An element's tags.
+type Tags = Vec<(&'static str, &'static str)>;
+/// A relation's members: way id and role.
+type Members = Vec<(i64, &'static str)>;
+
 /// A tiny extract: a building way, a lifted building part, an unclosed
 /// building way, a multipolygon building with a courtyard whose outer ring is
 /// split over two ways (one drawn backwards), and a relation with a missing way.
@@ -241,7 +246,7 @@ fn tiny_extract() -> Vec<u8> {
         pbf::sint_field(&mut node, 9, (lon * 1e7).round() as i64);
         pbf::bytes_field(&mut group_nodes, 1, &node);
     }
-    let ways: Vec<(i64, Vec<i64>, Vec<(&str, &str)>)> = vec![
+    let ways: Vec<(i64, Vec<i64>, Tags)> = vec![
         (
             10,
             vec![1, 2, 3, 4, 1],
@@ -270,7 +275,7 @@ fn tiny_extract() -> Vec<u8> {
         pbf::packed_delta_sint(&mut way, 8, refs);
         pbf::bytes_field(&mut group_ways, 3, &way);
     }
-    let relations: Vec<(i64, Vec<(i64, &str)>, Vec<(&str, &str)>)> = vec![
+    let relations: Vec<(i64, Members, Tags)> = vec![
         (
             20,
             vec![(21, "outer"), (23, "inner"), (22, "outer")],

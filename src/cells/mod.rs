@@ -4,6 +4,7 @@
 //! The types and [`triangulate`] below are the interface; [`region`] makes
 //! the region and free space, [`mesh`] triangulates and refines it.
 
+mod bisect;
 mod mesh;
 mod region;
 

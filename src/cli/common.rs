@@ -13,7 +13,8 @@ use crate::prepare::{DEFAULT_EPS, PrepareParams};
 /// How to read the city file.
 #[derive(Args, Debug, Clone)]
 pub struct InputArgs {
-    /// Read coordinates as metres as they are, instead of lon/lat.
+    /// GeoJSON coordinates are metres, used as they are, instead of lon/lat
+    /// (OSM PBF is always lon/lat; CityJSON always metres).
     #[arg(long)]
     pub metric: bool,
     /// Height in metres for buildings with no height or level tags.

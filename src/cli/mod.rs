@@ -9,6 +9,7 @@ pub mod generate;
 pub mod inspect;
 pub mod prepare;
 pub mod verify;
+pub mod render;
 
 use clap::{Parser, Subcommand};
 
@@ -34,6 +35,8 @@ pub enum Command {
     Inspect(inspect::InspectArgs),
     /// Check a .pvs file against its city by exact visibility from sampled viewpoints.
     Verify(verify::VerifyArgs),
+    /// Draw a PNG map of a city, a cell's visible set, its cull map or every cell's PVS size.
+    Render(render::RenderArgs),
 }
 
 /// Parse the arguments, run the subcommand, print any error, return the exit status.
@@ -46,6 +49,7 @@ pub fn main() -> i32 {
         Command::Bench(args) => bench::run(&args),
         Command::Inspect(args) => inspect::run(&args),
         Command::Verify(args) => verify::run(&args),
+        Command::Render(args) => render::run(&args),
     };
     match result {
         Ok(code) => code,

@@ -25,7 +25,7 @@ pub const MIN_PIECE_AREA: f64 = 1e-6;
 
 /// Erode each polygon of `area` by `eps` plus the safety margin.
 pub fn erode(area: &MultiPolygon, eps: f64) -> MultiPolygon {
-    if !(eps >= 0.0) || !eps.is_finite() {
+    if eps.is_nan() || eps < 0.0 || eps.is_infinite() {
         // Nothing sensible to return for a meaningless distance; the empty
         // set is the conservative answer.
         return Vec::new();
@@ -52,33 +52,93 @@ fn erode_polygon(polygon: &Polygon, radius: f64) -> MultiPolygon {
     if bounds.is_empty() || bounds.width() <= 2.0 * radius || bounds.height() <= 2.0 * radius {
         return Vec::new();
     }
+    let rings: Vec<Vec<DVec2>> = std::iter::once(solid_on_left(&polygon.exterior, true))
+        .chain(polygon.holes.iter().map(|h| solid_on_left(h, false)))
+        .collect();
+    if rings.len() == 1 && (0..rings[0].len()).all(|i| !is_reflex_or_straight(&rings[0], i)) {
+        return erode_convex(&rings[0], radius);
+    }
     let mut cut: Vec<geo::Polygon<f64>> = Vec::new();
-    let solid_on_left =
-        std::iter::once((&polygon.exterior, true)).chain(polygon.holes.iter().map(|h| (h, false)));
-    for (ring, exterior) in solid_on_left {
-        let mut ring: Vec<DVec2> = ring.clone();
-        ring.dedup();
-        while ring.len() > 1 && ring.first() == ring.last() {
-            ring.pop();
-        }
-        // Orient so that the solid lies left of every edge: exteriors
-        // counter-clockwise, holes clockwise.
-        if (ring_signed_area2(&ring) > 0.0) != exterior {
-            ring.reverse();
-        }
+    for ring in &rings {
         let n = ring.len();
         for i in 0..n {
             let (prev, v, next) = (ring[(i + n - 1) % n], ring[i], ring[(i + 1) % n]);
             cut.push(strip(v, next, radius));
-            // Reflex (or straight, to be safe) where the boundary turns right.
-            if (v - prev).perp_dot(next - v) <= 0.0 {
-                cut.push(disc(v, radius));
-            }
+            cut.extend(corner_wedge(prev, v, next, radius));
         }
     }
     let cut = geo::MultiPolygon::new(cut);
     let rest = polygon_to_geo(polygon).difference_with_fill_rule(&cut, FillRule::NonZero);
     multipolygon_from_geo(&rest, MIN_PIECE_AREA)
+}
+
+/// The ring without repeated consecutive vertices, oriented so that the
+/// solid lies left of every edge: counter-clockwise for an exterior,
+/// clockwise for a hole.
+fn solid_on_left(ring: &[DVec2], exterior: bool) -> Vec<DVec2> {
+    let mut ring = ring.to_vec();
+    ring.dedup();
+    while ring.len() > 1 && ring.first() == ring.last() {
+        ring.pop();
+    }
+    if (ring_signed_area2(&ring) > 0.0) != exterior {
+        ring.reverse();
+    }
+    ring
+}
+
+/// Whether the boundary turns right (reflex corner) or goes straight on at
+/// vertex `i` of a solid-on-the-left ring. Straight counts, to be safe.
+fn is_reflex_or_straight(ring: &[DVec2], i: usize) -> bool {
+    let n = ring.len();
+    let (prev, v, next) = (ring[(i + n - 1) % n], ring[i], ring[(i + 1) % n]);
+    (v - prev).perp_dot(next - v) <= 0.0
+}
+
+/// Erosion of a strictly convex polygon (counter-clockwise, no holes): the
+/// intersection of its edges' inner half-planes moved in by `radius`. For a
+/// point inside a convex polygon the distance to the boundary is the least
+/// distance to the edges' lines, so this is the exact erosion; the rounding
+/// of the clipping (about 1e-12 m) is far below the safety margin.
+fn erode_convex(ring: &[DVec2], radius: f64) -> MultiPolygon {
+    let n = ring.len();
+    if n < 3 {
+        return Vec::new();
+    }
+    let mut shape: Vec<DVec2> = ring.to_vec();
+    for i in 0..n {
+        let (a, b) = (ring[i], ring[(i + 1) % n]);
+        let inward = (b - a).perp().normalize();
+        // Keep the points p with inward . (p - a) >= radius.
+        let side = |p: DVec2| inward.dot(p - a) - radius;
+        let mut clipped = Vec::with_capacity(shape.len() + 1);
+        for k in 0..shape.len() {
+            let (p, q) = (shape[k], shape[(k + 1) % shape.len()]);
+            let (sp, sq) = (side(p), side(q));
+            if sp >= 0.0 {
+                clipped.push(p);
+            }
+            if (sp >= 0.0) != (sq >= 0.0) {
+                clipped.push(p + (q - p) * (sp / (sp - sq)));
+            }
+        }
+        shape = clipped;
+        if shape.len() < 3 {
+            return Vec::new();
+        }
+    }
+    // Dropping vertices of a convex polygon only shrinks it.
+    shape.dedup();
+    while shape.len() > 1 && shape.first() == shape.last() {
+        shape.pop();
+    }
+    if shape.len() < 3 || 0.5 * ring_signed_area2(&shape) < MIN_PIECE_AREA {
+        return Vec::new();
+    }
+    vec![Polygon {
+        exterior: shape,
+        holes: Vec::new(),
+    }]
 }
 
 /// A relative widening of the cut shapes that covers the rounding of their
@@ -108,24 +168,47 @@ fn strip(a: DVec2, b: DVec2, radius: f64) -> geo::Polygon<f64> {
     )
 }
 
-/// Sides of the polygon that circumscribes a corner's disc.
-const DISC_SIDES: usize = 16;
+/// The largest angle one side of a corner wedge spans around the corner.
+/// Its vertices then lie at most radius / cos(pi / 8), 8% of the radius,
+/// beyond the circle.
+const WEDGE_STEP: f64 = PI / 4.0;
 
-/// A regular polygon circumscribed about the disc of `radius` around `c`
-/// (its vertices at radius / cos(pi / n)), so it contains the disc.
-fn disc(c: DVec2, radius: f64) -> geo::Polygon<f64> {
-    let n = DISC_SIDES as f64;
-    let r = radius / (PI / n).cos() * (1.0 + ROUNDING_SLACK);
-    let ring: Vec<geo::Coord<f64>> = (0..DISC_SIDES)
-        .map(|k| {
-            let angle = 2.0 * PI * k as f64 / n;
-            geo::Coord {
-                x: c.x + r * angle.cos(),
-                y: c.y + r * angle.sin(),
-            }
-        })
-        .collect();
-    geo::Polygon::new(geo::LineString::new(ring), Vec::new())
+/// At a reflex corner v (the boundary prev-v-next turns right, solid on the
+/// left), a polygon containing the part of the disc of `radius` around v
+/// that the two edges' strips leave uncovered: the sector between the
+/// edges' inward normals. Its outer sides are tangent to the circle
+/// (circumscribed, never chords). `None` at convex corners and where the
+/// boundary goes straight on, where the strips cover the whole disc.
+fn corner_wedge(prev: DVec2, v: DVec2, next: DVec2, radius: f64) -> Option<geo::Polygon<f64>> {
+    let d1 = (v - prev).normalize();
+    let d2 = (next - v).normalize();
+    let cross = d1.perp_dot(d2);
+    let dot = d1.dot(d2);
+    // The turn to the right, in (0, pi]; a spike (turning back) is pi.
+    let theta = if cross < 0.0 {
+        (-cross).atan2(dot)
+    } else if cross == 0.0 && dot < 0.0 {
+        PI
+    } else {
+        return None;
+    };
+    let steps = (theta / WEDGE_STEP).ceil().max(1.0) as usize;
+    let half_step = theta / (2 * steps) as f64;
+    let r = radius * (1.0 + ROUNDING_SLACK);
+    let corner = r / half_step.cos();
+    // From the inward normal of the outgoing edge counter-clockwise to that
+    // of the incoming edge.
+    let n2 = d2.perp();
+    let start = n2.y.atan2(n2.x);
+    let mut ring = vec![v, v + n2 * r];
+    ring.extend(
+        (0..steps).map(|k| v + DVec2::from_angle(start + (2 * k + 1) as f64 * half_step) * corner),
+    );
+    ring.push(v + d1.perp() * r);
+    Some(geo::Polygon::new(
+        ring.iter().map(|p| geo::Coord { x: p.x, y: p.y }).collect(),
+        Vec::new(),
+    ))
 }
 
 #[cfg(test)]
@@ -140,17 +223,40 @@ mod tests {
     }
 
     #[test]
-    fn disc_polygon_contains_the_disc() {
-        let c = DVec2::new(3.0, -2.0);
-        let ring = ring_of(disc(c, 1.5));
-        assert_eq!(ring.len(), DISC_SIDES);
-        for i in 0..ring.len() {
-            let (p, q) = (ring[i], ring[(i + 1) % ring.len()]);
-            for s in 0..=100 {
-                let x = p + (q - p) * (s as f64 / 100.0);
-                assert!(x.distance(c) >= 1.5 - 1e-12);
+    fn strips_and_wedge_cover_the_disc_at_reflex_corners() {
+        use crate::model::point_in_ring;
+        let v = DVec2::new(3.0, -2.0);
+        let radius = 1.5;
+        for turn_deg in [1.0, 30.0, 45.0, 90.0, 91.0, 135.0, 170.0, 179.9] {
+            let d1 = DVec2::from_angle(0.3);
+            let d2 = DVec2::from_angle(0.3 - f64::to_radians(turn_deg));
+            let (prev, next) = (v - d1 * 4.0, v + d2 * 4.0);
+            let wedge = ring_of(corner_wedge(prev, v, next, radius).unwrap());
+            // The wedge's outer sides stay outside the circle.
+            for i in 1..wedge.len() - 1 {
+                let (p, q) = (wedge[i], wedge[i + 1]);
+                for s in 0..=50 {
+                    let x = p + (q - p) * (s as f64 / 50.0);
+                    assert!(x.distance(v) >= radius * (1.0 - 1e-12), "turn {turn_deg}");
+                }
+            }
+            // Strips plus wedge cover the disc.
+            let s1 = ring_of(strip(prev, v, radius));
+            let s2 = ring_of(strip(v, next, radius));
+            for k in 0..720 {
+                for f in [0.3, 0.9, 0.999] {
+                    let p = v + DVec2::from_angle(k as f64 / 720.0 * 2.0 * PI) * radius * f;
+                    assert!(
+                        point_in_ring(p, &s1) || point_in_ring(p, &s2) || point_in_ring(p, &wedge),
+                        "turn {turn_deg}: {p} uncovered"
+                    );
+                }
             }
         }
+        // Convex corners and straight runs need no wedge.
+        let (a, b) = (DVec2::ZERO, DVec2::X);
+        assert!(corner_wedge(a, b, DVec2::new(1.0, 1.0), radius).is_none());
+        assert!(corner_wedge(a, b, DVec2::new(2.0, 0.0), radius).is_none());
     }
 
     #[test]

@@ -15,6 +15,10 @@ use crate::{Error, Result};
 
 /// A position as written in the file: lon/lat degrees or metres.
 pub type RawPoint = [f64; 2];
+/// A ring as written in the file, open (no repeated closing position).
+pub type RawRing = Vec<RawPoint>;
+/// A polygon as written in the file: the exterior ring first, then holes.
+pub type RawPolygon = Vec<RawRing>;
 
 /// How a file's coordinates are to be read.
 #[derive(Clone, Debug, PartialEq)]
@@ -35,7 +39,7 @@ pub struct RawBuilding {
     /// Whether the id was written in the file (else it is the index).
     pub id_given: bool,
     /// Polygons: exterior ring first, then holes; rings open, in file coordinates.
-    pub polygons: Vec<Vec<Vec<RawPoint>>>,
+    pub polygons: Vec<RawPolygon>,
     pub height: f64,
     pub occludes: bool,
     /// Repairs already made while parsing (e.g. rings that were not closed).
@@ -165,13 +169,13 @@ fn choose_frame(parsed: &Parsed) -> Frame {
 }
 
 /// Project a building's rings into local metres.
-fn project(b: &RawBuilding, frame: &Frame) -> RawFootprint {
+fn project(b: &RawBuilding, to_local: &(impl Fn(f64, f64) -> DVec2 + Sync)) -> RawFootprint {
     b.polygons
         .iter()
         .map(|rings| {
             rings
                 .iter()
-                .map(|ring| ring.iter().map(|p| frame.to_local(p[0], p[1])).collect())
+                .map(|ring| ring.iter().map(|p| to_local(p[0], p[1])).collect())
                 .collect()
         })
         .collect()
@@ -198,11 +202,14 @@ pub fn assemble(parsed: Parsed, name: &str, bytes: &[u8], options: &InputOptions
     check_coordinates(&parsed, name)?;
     let frame = choose_frame(&parsed);
 
-    let repaired: Vec<_> = parsed
-        .buildings
-        .par_iter()
-        .map(|b| repair_footprint(&project(b, &frame), parsed.winding_matters))
-        .collect();
+    let repaired: Vec<_> = {
+        let to_local = frame.local_mapper();
+        parsed
+            .buildings
+            .par_iter()
+            .map(|b| repair_footprint(&project(b, &to_local), parsed.winding_matters))
+            .collect()
+    };
 
     let mut report = InputReport {
         features_read: parsed.features_read,
@@ -235,16 +242,17 @@ pub fn assemble(parsed: Parsed, name: &str, bytes: &[u8], options: &InputOptions
         });
     }
     report.buildings = buildings.len();
-    if options.strict {
-        if let Some(w) = report.skipped.first().or(report.repaired.first()) {
-            let more = report.skipped.len() + report.repaired.len() - 1;
-            return Err(Error::new(format!(
-                "{name}: feature {}: {} (--strict turns this warning into an error; {more} more)",
-                quoted(&w.feature),
-                w.message
-            )));
-        }
+    if options.strict
+        && let Some(w) = report.skipped.first().or(report.repaired.first())
+    {
+        let more = report.skipped.len() + report.repaired.len() - 1;
+        return Err(Error::new(format!(
+            "{name}: feature {}: {} (--strict turns this warning into an error; {more} more)",
+            quoted(&w.feature),
+            w.message
+        )));
     }
+
     if buildings.is_empty() {
         return Err(Error::new(format!(
             "{name}: no usable buildings: all {} were skipped (first: {}: {})",

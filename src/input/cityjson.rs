@@ -1,19 +1,27 @@
 //! CityJSON 1.1 / 2.0 (and 1.0) files: `Building` and `BuildingPart` city
 //! objects. The footprint is the GroundSurface semantic surface(s) of the
 //! object's highest-LoD geometry, else its surfaces lying flat at the lowest
-//! height; the height is the highest vertex minus the lowest. The file's
+//! height; the height is the highest vertex minus the ground, the lowest
+//! vertex of the building and all its parts; parts lifted off that ground
+//! do not occlude. The file's
 //! `transform` is applied; coordinates are metres in the CRS named by
 //! `metadata.referenceSystem`.
 
+use std::collections::BTreeMap;
+
 use serde_json::{Map, Value};
 
-use super::assemble::{Coordinates, Parsed, RawBuilding, RawPoint, feature_error};
+use super::assemble::{Coordinates, Parsed, RawBuilding, RawPoint, RawPolygon, feature_error};
 use super::height::check_height;
 use super::{InputOptions, Warning};
 use crate::{Error, Result};
 
 /// Surfaces within this height (metres) of the lowest vertex lie on the ground.
 const GROUND_TOLERANCE: f64 = 0.01;
+
+/// A part whose lowest vertex is more than this (metres) above its
+/// building's ground is lifted: an object, but not an occluder.
+const LIFT_TOLERANCE: f64 = 0.1;
 
 /// A surface: rings of 3D points, the first the outer ring.
 type Surface = Vec<Vec<[f64; 3]>>;
@@ -150,11 +158,18 @@ fn collect_surfaces(
     Ok(())
 }
 
-/// Footprint polygons (rings open, 2D) and height of one geometry.
-fn footprint_and_height(
+/// One object's footprint and the heights of its lowest and highest vertex.
+struct Extent {
+    polygons: Vec<RawPolygon>,
+    low: f64,
+    high: f64,
+}
+
+/// Footprint polygons (rings open, 2D) and vertical extent of one geometry.
+fn footprint_and_extent(
     geometry: &Value,
     verts: &[[f64; 3]],
-) -> std::result::Result<(Vec<Vec<Vec<RawPoint>>>, f64), String> {
+) -> std::result::Result<Extent, String> {
     let surfaces = surfaces(geometry, verts)?;
     let zs = surfaces
         .iter()
@@ -197,7 +212,29 @@ fn footprint_and_height(
                 .collect()
         })
         .collect();
-    Ok((polygons, high - low))
+    Ok(Extent {
+        polygons,
+        low,
+        high,
+    })
+}
+
+/// The id of the top-most ancestor of an object (following `parents`).
+fn family_root<'a>(objects: &'a Map<String, Value>, id: &'a str) -> &'a str {
+    let mut current = id;
+    for _ in 0..objects.len() {
+        let parent = objects
+            .get(current)
+            .and_then(|o| o.get("parents"))
+            .and_then(Value::as_array)
+            .and_then(|p| p.first())
+            .and_then(Value::as_str);
+        match parent {
+            Some(p) if objects.contains_key(p) => current = p,
+            _ => break,
+        }
+    }
+    current
 }
 
 /// Parse a CityJSON document into buildings.
@@ -231,6 +268,7 @@ pub fn parse(root: &Value, name: &str, _options: &InputOptions) -> Result<Parsed
         features_read: 0,
         winding_matters: false,
     };
+    let mut extents = Vec::new();
     for (index, (id, object)) in objects.iter().enumerate() {
         let kind = object.get("type").and_then(Value::as_str).unwrap_or("");
         if kind != "Building" && kind != "BuildingPart" {
@@ -256,16 +294,27 @@ pub fn parse(root: &Value, name: &str, _options: &InputOptions) -> Result<Parsed
             }
             continue;
         };
-        let fail = |what: &str| feature_error(name, Some(id), index, what);
-        let (polygons, height) = footprint_and_height(geometry, &verts).map_err(|e| fail(&e))?;
-        let height = check_height(height).map_err(|e| fail(&e))?;
+        let extent = footprint_and_extent(geometry, &verts)
+            .map_err(|e| feature_error(name, Some(id), index, &e))?;
+        extents.push((index, id, family_root(objects, id), extent));
+    }
+    // A building and its parts stand on one ground: the lowest vertex of all of them.
+    let mut ground: BTreeMap<&str, f64> = BTreeMap::new();
+    for (_, _, root, extent) in &extents {
+        let g = ground.entry(root).or_insert(f64::INFINITY);
+        *g = g.min(extent.low);
+    }
+    for (index, id, root, extent) in extents {
+        let ground = ground[root];
+        let height = check_height(extent.high - ground)
+            .map_err(|e| feature_error(name, Some(id), index, &e))?;
         parsed.buildings.push(RawBuilding {
             index,
             id: id.clone(),
             id_given: true,
-            polygons,
+            polygons: extent.polygons,
             height,
-            occludes: true,
+            occludes: extent.low <= ground + LIFT_TOLERANCE,
             notes: Vec::new(),
         });
     }

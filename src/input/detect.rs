@@ -32,6 +32,23 @@ pub fn sniff(bytes: &[u8]) -> Content {
     }
 }
 
+/// The format to read `bytes` as: `forced` if given, else from the content
+/// (PBF header, JSON `type`), else from the extension of `name`.
+pub fn format(bytes: &[u8], name: &str, forced: Option<Format>) -> Result<Format> {
+    if let Some(format) = forced {
+        return Ok(format);
+    }
+    match sniff(bytes) {
+        Content::Pbf => Ok(Format::OsmPbf),
+        Content::Json => Ok(json_format(bytes, name)?.unwrap_or(Format::Geojson)),
+        Content::Unknown => from_extension(name).ok_or_else(|| {
+            Error::new(format!(
+                "{name}: not a GeoJSON, CityJSON or OSM PBF file (the content is not JSON and has no PBF header; use --format to force a format)"
+            ))
+        }),
+    }
+}
+
 /// The format a file name's extension suggests.
 pub fn from_extension(name: &str) -> Option<Format> {
     let lower = name.to_ascii_lowercase();
@@ -46,27 +63,51 @@ pub fn from_extension(name: &str) -> Option<Format> {
     }
 }
 
-/// The format of decoded JSON from its top-level `type`.
-pub fn json_format(root: &Value) -> Option<Format> {
-    match root.get("type").and_then(Value::as_str)? {
-        "CityJSON" => Some(Format::Cityjson),
-        "FeatureCollection" | "Feature" | "Polygon" | "MultiPolygon" => Some(Format::Geojson),
-        _ => None,
-    }
+/// The top-level `type` of a JSON object, decoded without keeping the rest.
+#[derive(serde::Deserialize)]
+struct TypeOnly {
+    #[serde(rename = "type")]
+    kind: Option<Value>,
 }
 
-/// Decode JSON, with a message naming the line and column of a syntax error.
+/// The format a JSON document's top-level `type` names (a full, but
+/// allocation-free, pass over the text; syntax errors carry line and column).
+pub fn json_format(bytes: &[u8], name: &str) -> Result<Option<Format>> {
+    let text = bytes.strip_prefix(b"\xef\xbb\xbf").unwrap_or(bytes);
+    if text.iter().find(|b| !b.is_ascii_whitespace()) != Some(&b'{') {
+        return Err(Error::new(format!(
+            "{name}: expected a JSON object at the top level"
+        )));
+    }
+    let top: TypeOnly =
+        serde_json::from_slice(text).map_err(|e| json_error(e, text, name, "JSON"))?;
+    Ok(match top.kind.as_ref().and_then(Value::as_str) {
+        Some("CityJSON") => Some(Format::Cityjson),
+        Some("FeatureCollection" | "Feature" | "Polygon" | "MultiPolygon") => Some(Format::Geojson),
+        _ => None,
+    })
+}
+
+/// Decode JSON into a value tree (used for CityJSON).
 pub fn decode_json(bytes: &[u8], name: &str) -> Result<Value> {
-    serde_json::from_slice(bytes).map_err(|e| {
-        let hint = if e.is_syntax() && is_nan_or_infinity(bytes, e.line(), e.column()) {
+    let text = bytes.strip_prefix(b"\xef\xbb\xbf").unwrap_or(bytes);
+    serde_json::from_slice(text).map_err(|e| json_error(e, text, name, "JSON"))
+}
+
+/// A one-line message for a JSON decoding error: syntax errors are "not
+/// valid JSON" with line and column; structure errors are "not valid `what`".
+pub fn json_error(e: serde_json::Error, bytes: &[u8], name: &str, what: &str) -> Error {
+    if e.is_syntax() || e.is_eof() {
+        let hint = if is_nan_or_infinity(bytes, e.line(), e.column()) {
             " (NaN and Infinity are not valid JSON numbers: coordinates and heights must be finite)"
         } else {
             ""
         };
         Error::new(format!("{name}: not valid JSON: {e}{hint}"))
-    })
+    } else {
+        Error::new(format!("{name}: not valid {what}: {e}"))
+    }
 }
-
 /// True when the text at (line, column), both 1-based, is a NaN or Infinity token.
 fn is_nan_or_infinity(bytes: &[u8], line: usize, column: usize) -> bool {
     let Some(text) = bytes.split(|&b| b == b'\n').nth(line.saturating_sub(1)) else {

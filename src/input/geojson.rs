@@ -2,20 +2,120 @@
 //! buildings: ids, height properties, the legacy `crs` member, and region
 //! files for `--region`.
 
+use serde::de::{self, Deserialize, Deserializer, SeqAccess, Visitor};
 use serde_json::{Map, Value};
 
-use super::assemble::{Coordinates, Parsed, RawBuilding, RawPoint, feature_error};
+use super::assemble::{Coordinates, Parsed, RawBuilding, RawPoint, RawPolygon, feature_error};
 use super::height::{check_height, parse_length, parse_number};
-use super::{InputOptions, METRES_PER_LEVEL, Warning};
+use super::{InputOptions, METRES_PER_LEVEL, Warning, detect};
 use crate::{Error, Result};
 
 /// A parsing problem inside one feature; becomes an error naming the feature.
 type FeatureResult<T> = std::result::Result<T, String>;
 
+/// Nested coordinate arrays, decoded without a heap allocation per position.
+#[derive(Debug)]
+pub enum Coords {
+    /// A bare number (only ever seen inside a position while decoding).
+    Number(f64),
+    /// A position: the first two numbers of an array of numbers (a third, the
+    /// elevation, is ignored).
+    Position(f64, f64),
+    /// An array of arrays.
+    List(Vec<Coords>),
+}
+
+impl<'de> Deserialize<'de> for Coords {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        d.deserialize_any(CoordsVisitor)
+    }
+}
+
+struct CoordsVisitor;
+
+impl<'de> Visitor<'de> for CoordsVisitor {
+    type Value = Coords;
+
+    fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        f.write_str("GeoJSON coordinates (nested arrays of numbers)")
+    }
+
+    fn visit_f64<E: de::Error>(self, v: f64) -> std::result::Result<Coords, E> {
+        Ok(Coords::Number(v))
+    }
+
+    fn visit_i64<E: de::Error>(self, v: i64) -> std::result::Result<Coords, E> {
+        Ok(Coords::Number(v as f64))
+    }
+
+    fn visit_u64<E: de::Error>(self, v: u64) -> std::result::Result<Coords, E> {
+        Ok(Coords::Number(v as f64))
+    }
+
+    fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> std::result::Result<Coords, A::Error> {
+        let Some(first) = seq.next_element::<Coords>()? else {
+            return Ok(Coords::List(Vec::new()));
+        };
+        if let Coords::Number(x) = first {
+            let mut numbers = vec![x];
+            while let Some(next) = seq.next_element::<Coords>()? {
+                match next {
+                    Coords::Number(v) => numbers.push(v),
+                    _ => return Err(de::Error::custom("a position mixes numbers and arrays")),
+                }
+            }
+            return match numbers[..] {
+                [x, y, ..] => Ok(Coords::Position(x, y)),
+                _ => Err(de::Error::custom("a position needs two numbers")),
+            };
+        }
+        let mut items = vec![first];
+        while let Some(next) = seq.next_element::<Coords>()? {
+            if let Coords::Number(_) = next {
+                return Err(de::Error::custom("an array mixes numbers and arrays"));
+            }
+            items.push(next);
+        }
+        Ok(Coords::List(items))
+    }
+}
+
+/// A geometry object.
+#[derive(serde::Deserialize)]
+pub struct Geometry {
+    #[serde(rename = "type")]
+    kind: Option<String>,
+    coordinates: Option<Coords>,
+}
+
+/// A feature.
+#[derive(serde::Deserialize)]
+pub struct Feature {
+    id: Option<Value>,
+    properties: Option<Map<String, Value>>,
+    geometry: Option<Geometry>,
+}
+
+/// Any GeoJSON object this module reads: a FeatureCollection, a Feature or
+/// a bare geometry (members of the other kinds stay `None`).
+#[derive(serde::Deserialize)]
+pub struct Document {
+    #[serde(rename = "type")]
+    pub kind: Option<String>,
+    features: Option<Vec<Option<Feature>>>,
+    crs: Option<Value>,
+    geometry: Option<Geometry>,
+    coordinates: Option<Coords>,
+}
+
+/// Decode a GeoJSON document: syntax errors carry line and column.
+pub fn decode(bytes: &[u8], name: &str) -> Result<Document> {
+    serde_json::from_slice(bytes).map_err(|e| detect::json_error(e, bytes, name, "GeoJSON"))
+}
+
 /// The name of the CRS in a legacy `"crs": {"type": "name", "properties": {"name": ...}}` member.
-fn legacy_crs_name(root: &Map<String, Value>) -> Option<String> {
-    let crs = root.get("crs")?;
-    let name = crs.get("properties")?.get("name")?.as_str()?;
+fn legacy_crs_name(doc: &Document) -> Option<String> {
+    let name = doc.crs.as_ref()?.get("properties")?.get("name")?.as_str()?;
     Some(name.to_string())
 }
 
@@ -23,42 +123,31 @@ fn legacy_crs_name(root: &Map<String, Value>) -> Option<String> {
 fn is_geographic_crs(name: &str) -> bool {
     let n = name.to_ascii_uppercase();
     n.contains("CRS84")
-        || n.ends_with(":4326")
-        || n.ends_with("::4326")
-        || n.ends_with(":4258")
-        || n.ends_with("::4258")
+        || [":4326", ":4258", ":4979"]
+            .iter()
+            .any(|code| n.ends_with(code))
 }
 
 /// How the coordinates of a FeatureCollection are to be read.
-fn coordinates(root: &Map<String, Value>, options: &InputOptions) -> Coordinates {
-    let crs = legacy_crs_name(root);
-    match crs {
+fn coordinates(doc: &Document, options: &InputOptions) -> Coordinates {
+    match legacy_crs_name(doc) {
         Some(name) if !is_geographic_crs(&name) => Coordinates::Metric { crs: Some(name) },
         _ if options.metric => Coordinates::Metric { crs: None },
         _ => Coordinates::LonLat,
     }
 }
 
-fn position(value: &Value) -> FeatureResult<RawPoint> {
-    let pair = value
-        .as_array()
-        .filter(|a| a.len() >= 2)
-        .ok_or_else(|| format!("position {value} is not an array of two numbers"))?;
-    let coordinate = |v: &Value| {
-        v.as_f64()
-            .ok_or_else(|| format!("position {value} holds something that is not a number"))
-    };
-    Ok([coordinate(&pair[0])?, coordinate(&pair[1])?])
-}
-
 /// A ring's positions, open; notes whether it had to be closed.
-fn ring(value: &Value, notes: &mut Vec<String>) -> FeatureResult<Vec<RawPoint>> {
-    let positions = value
-        .as_array()
-        .ok_or_else(|| "a ring is not an array of positions".to_string())?;
+fn ring(coords: &Coords, notes: &mut Vec<String>) -> FeatureResult<Vec<RawPoint>> {
+    let Coords::List(positions) = coords else {
+        return Err("a ring is not an array of positions".into());
+    };
     let mut points = positions
         .iter()
-        .map(position)
+        .map(|p| match p {
+            Coords::Position(x, y) => Ok([*x, *y]),
+            _ => Err("a ring holds something that is not a position".to_string()),
+        })
         .collect::<FeatureResult<Vec<_>>>()?;
     if points.len() > 1 && points.first() == points.last() {
         points.pop();
@@ -68,36 +157,43 @@ fn ring(value: &Value, notes: &mut Vec<String>) -> FeatureResult<Vec<RawPoint>> 
     Ok(points)
 }
 
-fn polygon(value: &Value, notes: &mut Vec<String>) -> FeatureResult<Vec<Vec<RawPoint>>> {
-    let rings = value
-        .as_array()
-        .ok_or_else(|| "polygon coordinates are not an array of rings".to_string())?;
+fn polygon(coords: &Coords, notes: &mut Vec<String>) -> FeatureResult<RawPolygon> {
+    let Coords::List(rings) = coords else {
+        return Err("polygon coordinates are not an array of rings".into());
+    };
     rings.iter().map(|r| ring(r, notes)).collect()
 }
 
-/// The polygons of a Polygon or MultiPolygon geometry; `Err` for other types.
-fn geometry_polygons(
-    geometry: &Value,
+/// The polygons of a Polygon or MultiPolygon of the given type and
+/// coordinates; `None` for other types.
+fn shape_polygons(
+    kind: &str,
+    coords: Option<&Coords>,
     notes: &mut Vec<String>,
-) -> FeatureResult<Option<Vec<Vec<Vec<RawPoint>>>>> {
-    let kind = geometry.get("type").and_then(Value::as_str).unwrap_or("");
-    let coords = geometry.get("coordinates");
+) -> FeatureResult<Option<Vec<RawPolygon>>> {
     match (kind, coords) {
         ("Polygon", Some(c)) => Ok(Some(vec![polygon(c, notes)?])),
-        ("MultiPolygon", Some(c)) => {
-            let polys = c
-                .as_array()
-                .ok_or_else(|| "MultiPolygon coordinates are not an array".to_string())?;
-            Ok(Some(
-                polys
-                    .iter()
-                    .map(|p| polygon(p, notes))
-                    .collect::<FeatureResult<_>>()?,
-            ))
-        }
+        ("MultiPolygon", Some(Coords::List(polys))) => Ok(Some(
+            polys
+                .iter()
+                .map(|p| polygon(p, notes))
+                .collect::<FeatureResult<_>>()?,
+        )),
+        ("MultiPolygon", Some(_)) => Err("MultiPolygon coordinates are not an array".into()),
         ("Polygon" | "MultiPolygon", None) => Err(format!("{kind} has no coordinates")),
         _ => Ok(None),
     }
+}
+
+fn geometry_polygons(
+    geometry: &Geometry,
+    notes: &mut Vec<String>,
+) -> FeatureResult<Option<Vec<RawPolygon>>> {
+    shape_polygons(
+        geometry.kind.as_deref().unwrap_or(""),
+        geometry.coordinates.as_ref(),
+        notes,
+    )
 }
 
 /// A height property: a number, or text like "12", "12 m", "40 ft".
@@ -153,45 +249,44 @@ fn id_text(value: &Value) -> Option<String> {
     }
 }
 
-/// Parse a GeoJSON FeatureCollection (already decoded) into buildings.
-pub fn parse(root: &Value, name: &str, options: &InputOptions) -> Result<Parsed> {
-    let root = root
-        .as_object()
-        .ok_or_else(|| Error::new(format!("{name}: GeoJSON must be a JSON object")))?;
-    let kind = root.get("type").and_then(Value::as_str).unwrap_or("(none)");
+/// Parse a GeoJSON FeatureCollection into buildings.
+pub fn parse(doc: &Document, name: &str, options: &InputOptions) -> Result<Parsed> {
+    let kind = doc.kind.as_deref().unwrap_or("(none)");
     if kind != "FeatureCollection" {
         return Err(Error::new(format!(
             "{name}: expected a GeoJSON FeatureCollection, found type \"{kind}\""
         )));
     }
-    let features = root
-        .get("features")
-        .and_then(Value::as_array)
-        .ok_or_else(|| {
-            Error::new(format!(
-                "{name}: the FeatureCollection has no \"features\" array"
-            ))
-        })?;
+    let features = doc.features.as_ref().ok_or_else(|| {
+        Error::new(format!(
+            "{name}: the FeatureCollection has no \"features\" array"
+        ))
+    })?;
     let empty = Map::new();
     let mut parsed = Parsed {
-        coordinates: coordinates(root, options),
+        coordinates: coordinates(doc, options),
         buildings: Vec::new(),
         skipped: Vec::new(),
         features_read: features.len(),
         winding_matters: true,
     };
     for (index, feature) in features.iter().enumerate() {
-        let props = feature
-            .get("properties")
-            .and_then(Value::as_object)
-            .unwrap_or(&empty);
+        let Some(feature) = feature else {
+            parsed.skipped.push(Warning {
+                feature: format!("#{index}"),
+                message: "feature is null; skipped".into(),
+            });
+            continue;
+        };
+        let props = feature.properties.as_ref().unwrap_or(&empty);
         let given_id = feature
-            .get("id")
+            .id
+            .as_ref()
             .and_then(id_text)
             .or_else(|| props.get("id").and_then(id_text));
         let fail = |what: String| feature_error(name, given_id.as_deref(), index, &what);
         let warning_name = given_id.clone().unwrap_or_else(|| format!("#{index}"));
-        let Some(geometry) = feature.get("geometry").filter(|g| !g.is_null()) else {
+        let Some(geometry) = &feature.geometry else {
             parsed.skipped.push(Warning {
                 feature: warning_name,
                 message: "feature has no geometry; skipped".into(),
@@ -200,7 +295,7 @@ pub fn parse(root: &Value, name: &str, options: &InputOptions) -> Result<Parsed>
         };
         let mut notes = Vec::new();
         let Some(polygons) = geometry_polygons(geometry, &mut notes).map_err(fail)? else {
-            let kind = geometry.get("type").and_then(Value::as_str).unwrap_or("?");
+            let kind = geometry.kind.as_deref().unwrap_or("?");
             parsed.skipped.push(Warning {
                 feature: warning_name,
                 message: format!("geometry is a {kind}, not a Polygon or MultiPolygon; skipped"),
@@ -222,15 +317,23 @@ pub fn parse(root: &Value, name: &str, options: &InputOptions) -> Result<Parsed>
     Ok(parsed)
 }
 
+/// The type and coordinates of a geometry, if any.
+fn geometry_parts(g: Option<&Geometry>) -> (&str, Option<&Coords>) {
+    match g {
+        Some(g) => (g.kind.as_deref().unwrap_or(""), g.coordinates.as_ref()),
+        None => ("", None),
+    }
+}
+
 /// The single polygon of a region file: a Polygon geometry, a Feature, or a
 /// FeatureCollection with one polygon feature. Rings open, in file coordinates.
-pub fn parse_region(root: &Value, name: &str) -> Result<Vec<Vec<RawPoint>>> {
+pub fn parse_region(doc: &Document, name: &str) -> Result<RawPolygon> {
     let fail = |what: &str| Error::new(format!("{name}: region: {what}"));
-    let geometry = match root.get("type").and_then(Value::as_str) {
+    let (kind, coords) = match doc.kind.as_deref() {
         Some("FeatureCollection") => {
-            let features = root
-                .get("features")
-                .and_then(Value::as_array)
+            let features = doc
+                .features
+                .as_ref()
                 .ok_or_else(|| fail("the FeatureCollection has no \"features\" array"))?;
             if features.len() != 1 {
                 return Err(fail(&format!(
@@ -238,20 +341,21 @@ pub fn parse_region(root: &Value, name: &str) -> Result<Vec<Vec<RawPoint>>> {
                     features.len()
                 )));
             }
-            features[0].get("geometry")
+            geometry_parts(features[0].as_ref().and_then(|f| f.geometry.as_ref()))
         }
-        Some("Feature") => root.get("geometry"),
-        Some(_) => Some(root),
-        None => None,
-    }
-    .ok_or_else(|| fail("expected a GeoJSON Polygon, Feature or FeatureCollection"))?;
+        Some("Feature") => geometry_parts(doc.geometry.as_ref()),
+        Some(kind) => (kind, doc.coordinates.as_ref()),
+        None => ("", None),
+    };
     let mut notes = Vec::new();
-    match geometry_polygons(geometry, &mut notes).map_err(|e| fail(&e))? {
+    match shape_polygons(kind, coords, &mut notes).map_err(|e| fail(&e))? {
         Some(mut polygons) if polygons.len() == 1 => Ok(polygons.remove(0)),
         Some(polygons) => Err(fail(&format!(
             "expected one polygon, found a MultiPolygon of {}",
             polygons.len()
         ))),
-        None => Err(fail("the geometry is not a Polygon")),
+        None => Err(fail(
+            "expected a GeoJSON Polygon, or a Feature or FeatureCollection holding one",
+        )),
     }
 }

@@ -111,29 +111,10 @@ pub fn read_city_bytes(bytes: &[u8], name: &str, options: &InputOptions) -> Resu
     if bytes.iter().all(|b| b.is_ascii_whitespace()) {
         return Err(crate::Error::new(format!("{name}: the file is empty")));
     }
-    let content = detect::sniff(bytes);
-    let guess = options.format.or(match content {
-        detect::Content::Pbf => Some(Format::OsmPbf),
-        detect::Content::Json => None,
-        detect::Content::Unknown => detect::from_extension(name),
-    });
-    let parsed = match guess {
-        Some(Format::OsmPbf) => osm::parse(bytes, name, options)?,
-        _ if content == detect::Content::Unknown && guess.is_none() => {
-            return Err(crate::Error::new(format!(
-                "{name}: not a GeoJSON, CityJSON or OSM PBF file (the content is not JSON and has no PBF header; use --format to force a format)"
-            )));
-        }
-        _ => {
-            let root = detect::decode_json(bytes, name)?;
-            let format = guess
-                .or_else(|| detect::json_format(&root))
-                .unwrap_or(Format::Geojson);
-            match format {
-                Format::Cityjson => cityjson::parse(&root, name, options)?,
-                _ => geojson::parse(&root, name, options)?,
-            }
-        }
+    let parsed = match detect::format(bytes, name, options.format)? {
+        Format::OsmPbf => osm::parse(bytes, name, options)?,
+        Format::Cityjson => cityjson::parse(&detect::decode_json(bytes, name)?, name, options)?,
+        Format::Geojson => geojson::parse(&geojson::decode(bytes, name)?, name, options)?,
     };
     assemble::assemble(parsed, name, bytes, options)
 }
@@ -144,8 +125,7 @@ pub fn read_region(path: &Path, frame: &Frame) -> Result<crate::model::Polygon> 
     let name = path.display().to_string();
     let bytes =
         std::fs::read(path).map_err(|e| crate::Error::new(format!("{name}: cannot read: {e}")))?;
-    let root = detect::decode_json(&bytes, &name)?;
-    let rings = geojson::parse_region(&root, &name)?;
+    let rings = geojson::parse_region(&geojson::decode(&bytes, &name)?, &name)?;
     if rings
         .iter()
         .flatten()

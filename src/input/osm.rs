@@ -9,7 +9,7 @@ use std::io::Cursor;
 
 use osmpbf::{Element, ElementReader, RelMemberType};
 
-use super::assemble::{Coordinates, Parsed, RawBuilding, RawPoint};
+use super::assemble::{Coordinates, Parsed, RawBuilding, RawPoint, RawPolygon};
 use super::height::{check_height, parse_length, parse_number};
 use super::{InputOptions, METRES_PER_LEVEL, Warning};
 use crate::{Error, Result};
@@ -153,7 +153,7 @@ fn relation_polygons(
     ways: &HashMap<i64, Vec<i64>>,
     nodes: &HashMap<i64, RawPoint>,
     notes: &mut Vec<String>,
-) -> std::result::Result<Vec<Vec<Vec<RawPoint>>>, String> {
+) -> std::result::Result<Vec<RawPolygon>, String> {
     let mut outer = Vec::new();
     let mut inner = Vec::new();
     for (way, role) in members {
@@ -170,7 +170,7 @@ fn relation_polygons(
     if outer.is_empty() {
         return Err("no outer ring".into());
     }
-    let mut polygons: Vec<Vec<Vec<RawPoint>>> = outer
+    let mut polygons: Vec<RawPolygon> = outer
         .iter()
         .map(|r| ring_points(r, nodes).map(|p| vec![p]))
         .collect::<std::result::Result<_, _>>()?;

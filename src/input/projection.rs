@@ -111,6 +111,24 @@ impl Frame {
         }
     }
 
+    /// A function mapping many input points to local metres, with the
+    /// projection's constants computed once; gives exactly [`Frame::to_local`].
+    pub fn local_mapper(&self) -> impl Fn(f64, f64) -> DVec2 + Sync + '_ {
+        let projection = match self {
+            Frame::LonLat { lon0, lat0 } => {
+                let k = kruger();
+                let origin = tm_forward(&k, *lon0, *lon0, *lat0);
+                Some((k, *lon0, origin))
+            }
+            Frame::Metric { .. } => None,
+        };
+        move |x, y| match (&projection, self) {
+            (Some((k, lon0, origin)), _) => tm_forward(k, *lon0, x, y) - *origin,
+            (None, Frame::Metric { origin, .. }) => DVec2::new(x, y) - *origin,
+            (None, Frame::LonLat { .. }) => unreachable!("lon/lat frames always have a projection"),
+        }
+    }
+
     /// Local metres back to input coordinates.
     pub fn to_input(&self, p: DVec2) -> (f64, f64) {
         match self {
@@ -161,6 +179,10 @@ mod tests {
                 (lon - lon2).abs() < 1e-8 && (lat - lat2).abs() < 1e-8,
                 "{lon},{lat} -> {lon2},{lat2}"
             );
+        }
+        let map = frame.local_mapper();
+        for &(lon, lat) in &[(26.95, 60.48), (26.80, 60.40), (27.1, 60.55)] {
+            assert_eq!(map(lon, lat), frame.to_local(lon, lat));
         }
         // One minute of latitude is about 1857 m at 60.47 degrees north (WGS 84 meridian arc).
         let d = frame.to_local(26.94, 60.47 + 1.0 / 60.0).y;

@@ -1,21 +1,24 @@
 //! The per-sample horizon (METHOD.md 6): for each azimuth bin, a lower bound
 //! on the steepest sight-line slope (rise over run) blocked by the shrunk
-//! occluders inside the cull-map window, valid for EVERY direction in the
-//! bin. Anything wholly outside the window whose own steepest slope is at or
-//! below the horizon over all its bins is hidden.
+//! occluders, valid for EVERY direction in the bin. Anything whose own
+//! steepest slope is at or below the horizon over all its bins, and which
+//! lies behind every chain that made the horizon, is hidden.
 //!
 //! Why the bound holds: a connected chain of occluder edges at height H maps
 //! onto a connected arc of directions seen from the eye, so every direction
 //! in that arc meets the chain. Within one bin's wedge, it meets it no
 //! farther than d, the greatest distance of the chain's parts inside the
-//! wedge (on a straight edge the distance is convex, so it is greatest at
-//! the wedge's borders or the edge's ends). Where it meets it, solid stands
-//! up to H, so the sight line in that direction is blocked up to slope
-//! (H - h) / d. Only bins that lie wholly inside a chain's arc get the bound.
-//! The solver only uses chains that lie wholly nearer than the object tested,
-//! so the blocking point is in front of it.
-
-use std::f64::consts::{PI, TAU};
+//! wedge (along a straight edge the distance is monotone between the wedge's
+//! borders, so it is greatest at a border or an end point). Where it meets
+//! it, solid stands up to H, so the sight line in that direction is blocked
+//! up to slope (H - h) / d. Only bins that lie wholly inside a chain's arc
+//! get the bound. The solver only uses chains that lie wholly nearer than
+//! the object tested, so the blocking point is in front of it.
+//!
+//! Directions are measured by a pseudo-angle (the "diamond angle", period 4,
+//! monotone in the true angle) rather than `atan2`: the argument above holds
+//! for any partition of the directions into wedges, and the pseudo-angle
+//! costs one division.
 
 use glam::DVec2;
 
@@ -23,7 +26,9 @@ use crate::model::Rect;
 
 /// Number of azimuth bins.
 pub const BINS: usize = 2048;
-const BIN_WIDTH: f64 = TAU / BINS as f64;
+/// The pseudo-angle of a full turn.
+const TURN: f64 = 4.0;
+const BIN_WIDTH: f64 = TURN / BINS as f64;
 /// Bins per group in the coarse level that lets hidden chains be skipped.
 const GROUP: usize = 32;
 
@@ -33,9 +38,10 @@ pub struct Horizon {
     slopes: Vec<f64>,
     chain_points: Vec<DVec2>,
     chain_angles: Vec<f64>,
-    bin_distance: Vec<f64>,
-    /// Unit direction of each bin's lower border, `border_dirs[b]` at angle
-    /// `b * BIN_WIDTH - pi`.
+    /// Per bin of the chain being added, the reciprocal of the greatest
+    /// distance of its parts in the bin's wedge.
+    bin_nearness: Vec<f64>,
+    /// Unit direction of each bin's lower border.
     border_dirs: Vec<DVec2>,
     /// Per group of GROUP bins, the smallest slope of its bins.
     group_min: Vec<f64>,
@@ -47,29 +53,57 @@ impl Default for Horizon {
             slopes: vec![f64::NEG_INFINITY; BINS],
             chain_points: Vec::new(),
             chain_angles: Vec::new(),
-            bin_distance: Vec::new(),
-            border_dirs: (0..BINS)
-                .map(|b| {
-                    let theta = b as f64 * BIN_WIDTH - PI;
-                    DVec2::new(theta.cos(), theta.sin())
-                })
-                .collect(),
+            bin_nearness: Vec::new(),
+            border_dirs: (0..BINS).map(|b| direction_of(b as f64 * BIN_WIDTH)).collect(),
             group_min: vec![f64::NEG_INFINITY; BINS / GROUP],
         }
     }
 }
 
-/// Angle of `p - v` unwrapped to lie within pi of `reference`.
-fn unwrapped_angle(v: DVec2, p: DVec2, reference: f64) -> f64 {
-    let d = p - v;
-    let mut a = d.y.atan2(d.x);
-    while a - reference > PI {
-        a -= TAU;
+/// The diamond angle of `d` in [0, 4): 0 east, 1 north, 2 west, 3 south,
+/// strictly increasing counter-clockwise.
+fn pseudo_angle(d: DVec2) -> f64 {
+    if d.y >= 0.0 {
+        if d.x >= 0.0 { d.y / (d.x + d.y) } else { 1.0 - d.x / (d.y - d.x) }
+    } else if d.x < 0.0 {
+        2.0 - d.y / (-d.x - d.y)
+    } else {
+        3.0 + d.x / (d.x - d.y)
     }
-    while a - reference < -PI {
-        a += TAU;
+}
+
+/// The unit direction whose diamond angle is `a` (any real; period 4).
+fn direction_of(a: f64) -> DVec2 {
+    let a = a.rem_euclid(TURN);
+    let (quadrant, t) = (a.floor(), a - a.floor());
+    let d = match quadrant as u8 {
+        0 => DVec2::new(1.0 - t, t),
+        1 => DVec2::new(-t, 1.0 - t),
+        2 => DVec2::new(t - 1.0, -t),
+        _ => DVec2::new(t, t - 1.0),
+    };
+    d.normalize()
+}
+
+/// Pseudo-angle of `p - v` unwrapped to lie within half a turn of `reference`.
+fn unwrapped_angle(v: DVec2, p: DVec2, reference: f64) -> f64 {
+    let mut a = pseudo_angle(p - v);
+    while a - reference > TURN / 2.0 {
+        a -= TURN;
+    }
+    while a - reference < -TURN / 2.0 {
+        a += TURN;
     }
     a
+}
+
+/// The bin (unwrapped, any integer) holding pseudo-angle `a`.
+fn bin_of(a: f64) -> i64 {
+    (a / BIN_WIDTH).floor() as i64
+}
+
+fn wrap(bin: i64) -> usize {
+    bin.rem_euclid(BINS as i64) as usize
 }
 
 impl Horizon {
@@ -106,12 +140,12 @@ impl Horizon {
         }
         let lo = self.chain_angles.iter().copied().fold(f64::INFINITY, f64::min);
         let hi = self.chain_angles.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-        if hi - lo >= TAU {
-            // The chain winds around the eye; keep it simple and skip it.
+        if hi - lo >= TURN / 2.0 {
+            // The chain wraps half way round the eye or more; skip it.
             return;
         }
-        let base = ((lo + PI) / BIN_WIDTH).floor() as i64;
-        let top = ((hi + PI) / BIN_WIDTH).floor() as i64;
+        let base = bin_of(lo);
+        let top = bin_of(hi);
         // The steepest slope this chain could give; if every bin it spans is
         // already at least that steep, it adds nothing.
         let nearest = self
@@ -119,14 +153,14 @@ impl Horizon {
             .windows(2)
             .map(|w| crate::model::distance_to_segment(v, w[0], w[1]))
             .fold(f64::INFINITY, f64::min);
-        let steepest = (height - eye) / nearest;
+        let rise = height - eye;
         let groups = (base.div_euclid(GROUP as i64)..=top.div_euclid(GROUP as i64))
             .map(|g| self.group_min[g.rem_euclid((BINS / GROUP) as i64) as usize]);
-        if groups.fold(f64::INFINITY, f64::min) >= steepest {
+        if groups.fold(f64::INFINITY, f64::min) >= rise / nearest {
             return;
         }
-        self.bin_distance.clear();
-        self.bin_distance.resize((top - base + 1) as usize, 0.0);
+        self.bin_nearness.clear();
+        self.bin_nearness.resize((top - base + 1) as usize, f64::INFINITY);
         for i in 0..n - 1 {
             let (a, b) = (self.chain_points[i], self.chain_points[i + 1]);
             let (mut ta, mut tb) = (self.chain_angles[i], self.chain_angles[i + 1]);
@@ -137,36 +171,35 @@ impl Horizon {
             }
             let normal = (b - a).perp();
             let offset = (a - v).dot(normal);
-            let far = da.max(db);
+            let far_nearness = 1.0 / da.max(db);
             let dirs = &self.border_dirs;
-            // Distance along the border ray of bin `border` to the edge's line,
-            // capped by the edge's farther end (the border ray meets the edge
-            // itself when the border lies strictly between its end angles).
-            let along = |border: i64| -> f64 {
-                let denom = dirs[border.rem_euclid(BINS as i64) as usize].dot(normal);
-                let t = offset / denom;
-                if denom.abs() < 1e-12 || !t.is_finite() || t <= 0.0 { far } else { t.min(far) }
+            // Reciprocal distance along the border ray of bin `border` to the
+            // edge's line (the border ray meets the edge itself when the
+            // border lies strictly between its end angles), never below the
+            // reciprocal of the edge's farther end.
+            let nearness_at = |border: i64| -> f64 {
+                let q = dirs[wrap(border)].dot(normal) / offset;
+                if q.is_finite() && q > 0.0 { q.max(far_nearness) } else { far_nearness }
             };
-            let first = ((ta + PI) / BIN_WIDTH).floor() as i64;
-            let last = ((tb + PI) / BIN_WIDTH).floor() as i64;
-            // Distance at the lower border of each bin first..=last+1; the
-            // borders outside [ta, tb] are replaced by the edge's ends.
-            let mut lower = da;
+            let first = bin_of(ta);
+            let last = bin_of(tb);
+            // The borders outside [ta, tb] are replaced by the edge's ends.
+            let mut lower = 1.0 / da;
             for bin in first..=last {
                 let upper_border = bin + 1;
-                let upper = if upper_border as f64 * BIN_WIDTH - PI >= tb { db } else { along(upper_border) };
-                let slot = &mut self.bin_distance[(bin - base) as usize];
-                *slot = slot.max(lower).max(upper);
+                let upper = if upper_border as f64 * BIN_WIDTH >= tb { 1.0 / db } else { nearness_at(upper_border) };
+                let slot = &mut self.bin_nearness[(bin - base) as usize];
+                *slot = slot.min(lower).min(upper);
                 lower = upper;
             }
         }
-        let first_full = ((lo + PI) / BIN_WIDTH).ceil() as i64;
-        let last_full = ((hi + PI) / BIN_WIDTH).floor() as i64 - 1;
+        let first_full = (lo / BIN_WIDTH).ceil() as i64;
+        let last_full = bin_of(hi) - 1;
         for bin in first_full..=last_full {
-            let d = self.bin_distance[(bin - base) as usize];
-            if d > 0.0 {
-                let s = &mut self.slopes[bin.rem_euclid(BINS as i64) as usize];
-                *s = s.max((height - eye) / d);
+            let nearness = self.bin_nearness[(bin - base) as usize];
+            if nearness.is_finite() {
+                let s = &mut self.slopes[wrap(bin)];
+                *s = s.max(rise * nearness);
             }
         }
         if first_full <= last_full {
@@ -180,7 +213,7 @@ impl Horizon {
 
     /// True when everything in `rect` up to height `top` is below the
     /// horizon seen from `(v, eye)`. Only valid for the parts of `rect` that
-    /// lie outside the window the horizon was built from.
+    /// lie behind every chain added so far.
     pub fn hides_rect(&self, v: DVec2, eye: f64, rect: &Rect, top: f64) -> bool {
         let nearest = v.clamp(rect.min, rect.max);
         let r_min = nearest.distance(v);
@@ -207,9 +240,7 @@ impl Horizon {
             lo = lo.min(a);
             hi = hi.max(a);
         }
-        let first = ((lo + PI) / BIN_WIDTH).floor() as i64;
-        let last = ((hi + PI) / BIN_WIDTH).floor() as i64;
-        (first..=last).all(|b| self.slopes[b.rem_euclid(BINS as i64) as usize] >= need)
+        (bin_of(lo)..=bin_of(hi)).all(|b| self.slopes[wrap(b)] >= need)
     }
 }
 
