@@ -141,6 +141,9 @@ fn verify_passes_a_correct_pvs_and_fails_a_broken_one() {
     assert_eq!(violations[0]["cell"], 3);
     assert_eq!(violations[0]["building"], "tower");
     assert_eq!(violations[0]["witness"][2], 80.0);
+    // In the file's own metres the witness is on the tower's south wall.
+    let input_y = violations[0]["witness_input"][1].as_f64().unwrap();
+    assert!((input_y - (OFFSET.1 + 30.0)).abs() < 1e-6, "{out}");
     let (code, out, _) = run(&[&city, &broken], &["--all", "--seed", "9"]);
     assert_eq!(code, 1);
     assert!(

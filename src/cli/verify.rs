@@ -145,7 +145,7 @@ fn run_in_pool(args: &VerifyArgs, threads: usize) -> Result<i32> {
             b.inc(n)
         }
     };
-    let report = verify_with_progress(
+    let mut report = verify_with_progress(
         &city.buildings,
         reader.cell_triangles(),
         info.eye_height,
@@ -155,6 +155,14 @@ fn run_in_pool(args: &VerifyArgs, threads: usize) -> Result<i32> {
     );
     if let Some(b) = &bar {
         b.finish_and_clear();
+    }
+    let to_input = |p: [f64; 3]| {
+        let (x, y) = info.frame.to_input(glam::DVec2::new(p[0], p[1]));
+        Some([x, y])
+    };
+    for v in &mut report.violations {
+        v.viewpoint_input = to_input(v.viewpoint);
+        v.witness_input = to_input(v.witness);
     }
     let passed = report.violations.is_empty();
     let verdict = Verdict {

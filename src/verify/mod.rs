@@ -57,6 +57,13 @@ pub struct Violation {
     pub building: String,
     pub viewpoint: [f64; 3],
     pub witness: [f64; 3],
+    /// The viewpoint's x, y in the input file's coordinates, when the caller
+    /// knows the frame (the command line fills it in).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub viewpoint_input: Option<[f64; 2]>,
+    /// The witness's x, y in the input file's coordinates, likewise.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub witness_input: Option<[f64; 2]>,
 }
 
 /// A viewpoint the judge could not use: it lies inside an occluding building
@@ -202,6 +209,8 @@ pub fn verify_with_progress(
                         building: buildings[b as usize].id.clone(),
                         viewpoint: p.to_array(),
                         witness: w.to_array(),
+                        viewpoint_input: None,
+                        witness_input: None,
                     });
                 }
             }
