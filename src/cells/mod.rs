@@ -5,6 +5,7 @@
 //! the region and free space, [`mesh`] triangulates and refines it.
 
 mod bisect;
+mod lattice;
 mod mesh;
 mod region;
 
