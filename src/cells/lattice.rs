@@ -11,15 +11,26 @@ const MAX_BUCKETS: f64 = 1e6;
 
 /// Points of a triangular lattice with the given spacing over the bounding
 /// box of `free`, row by row, that are at least `clearance` from every
-/// outline of `free`. Whether a point is inside free space is left to the
-/// caller.
-pub fn lattice_points(free: &MultiPolygon, spacing: f64, clearance: f64) -> Vec<DVec2> {
+/// outline of `free` and that `keep` accepts (the caller decides what is
+/// inside free space). The lattice is an optimisation only: none when it
+/// would have more than `max_sites` sites.
+pub fn lattice_points(
+    free: &MultiPolygon,
+    spacing: f64,
+    clearance: f64,
+    max_sites: usize,
+    mut keep: impl FnMut(DVec2) -> bool,
+) -> Vec<DVec2> {
     let bounds = Rect::of_points(free.iter().flat_map(|p| p.exterior.iter()));
     if bounds.is_empty() || spacing.is_nan() || spacing <= 0.0 {
         return Vec::new();
     }
-    let outlines = SegmentGrid::new(free, bounds, clearance);
     let row = spacing * 3f64.sqrt() / 2.0;
+    let sites = (bounds.width() / spacing + 1.0) * (bounds.height() / row + 1.0);
+    if sites.is_nan() || sites > max_sites as f64 {
+        return Vec::new();
+    }
+    let outlines = SegmentGrid::new(free, bounds, clearance);
     let rows = (bounds.height() / row).floor() as usize;
     let mut points = Vec::new();
     for j in 0..=rows {
@@ -28,7 +39,7 @@ pub fn lattice_points(free: &MultiPolygon, spacing: f64, clearance: f64) -> Vec<
         let columns = ((bounds.width() - shift) / spacing).floor() as usize;
         for i in 0..=columns {
             let p = DVec2::new(bounds.min.x + shift + i as f64 * spacing, y);
-            if !outlines.any_within(p, clearance) {
+            if !outlines.any_within(p, clearance) && keep(p) {
                 points.push(p);
             }
         }
@@ -122,7 +133,10 @@ mod tests {
             exterior: square(0.0, 0.0, 100.0),
             holes: vec![hole],
         }];
-        let points = lattice_points(&free, 10.0, 7.0);
+        let points = lattice_points(&free, 10.0, 7.0, 1000, |_| true);
+        assert!(lattice_points(&free, 10.0, 7.0, 100, |_| true).is_empty());
+        let right = lattice_points(&free, 10.0, 7.0, 1000, |p| p.x > 50.0);
+        assert!(!right.is_empty() && right.len() < points.len());
         assert!(!points.is_empty());
         let edges: Vec<_> = polygon_edges(&free[0]).collect();
         for p in &points {

@@ -12,7 +12,7 @@ use spade::{
 
 use super::bisect::{Mesh, bisect_long_edges};
 use super::lattice::lattice_points;
-use crate::model::{MultiPolygon, Rect, multipolygon_area};
+use crate::model::{MultiPolygon, Rect, multipolygon_area, polygon_edges};
 use crate::{Error, Result};
 
 type Cdt = ConstrainedDelaunayTriangulation<Point2<f64>>;
@@ -37,11 +37,17 @@ const LATTICE_CLEARANCE: f64 = 0.7;
 pub fn triangulate_free_space(free: &MultiPolygon, max_edge: f64) -> Result<Vec<[DVec2; 3]>> {
     let area = multipolygon_area(free);
     // A generous estimate: on generated cities and Kotka each vertex carries
-    // about 0.2 max_edge^2 of free area (two cells of 0.1 max_edge^2).
-    let expected_vertices = area / (0.1 * max_edge * max_edge);
+    // about 0.2 max_edge^2 of free area (two cells of 0.1 max_edge^2), and
+    // the outlines are split into pieces of at most max_edge.
+    let perimeter: f64 = free
+        .iter()
+        .flat_map(polygon_edges)
+        .map(|(a, b)| a.distance(b))
+        .sum();
+    let expected_vertices = area / (0.1 * max_edge * max_edge) + perimeter / max_edge;
     if expected_vertices > MAX_VERTICES as f64 {
         return Err(Error::new(format!(
-            "cells: a free area of {area:.0} m2 with cell edges of at most {max_edge} m needs \
+            "cells: a free area of {area:.0} m2 and {perimeter:.0} m of outlines with cell edges of at most {max_edge} m need \
              about {expected_vertices:.0} vertices, more than the limit of {MAX_VERTICES}; \
              give a larger --max-cell-edge or a smaller region"
         )));
@@ -129,13 +135,16 @@ fn constrained(free: &MultiPolygon, max_edge: f64) -> std::result::Result<Cdt, I
 /// Insert the lattice points of [`lattice_points`] that fall in free faces.
 fn insert_lattice(cdt: &mut Cdt, free: &MultiPolygon, spacing: f64) -> Result<()> {
     let free_now = free_faces(cdt);
-    let inside: Vec<DVec2> = lattice_points(free, spacing, LATTICE_CLEARANCE * spacing)
-        .into_iter()
-        .filter(|p| match cdt.locate(Point2::new(p.x, p.y)) {
+    let inside = lattice_points(
+        free,
+        spacing,
+        LATTICE_CLEARANCE * spacing,
+        MAX_VERTICES,
+        |p| match cdt.locate(Point2::new(p.x, p.y)) {
             PositionInTriangulation::OnFace(f) => free_now[f.index()],
             _ => false,
-        })
-        .collect();
+        },
+    );
     for p in inside {
         cdt.insert(Point2::new(p.x, p.y)).map_err(insertion_error)?;
     }
