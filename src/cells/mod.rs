@@ -1,10 +1,12 @@
 //! View cells: the constrained Delaunay triangulation (spade) of free space,
 //! refined so that no cell edge exceeds a bound (METHOD.md 2).
 //!
-//! The types and [`triangulate`] below are the interface; [`region`] makes
-//! the region and free space, [`mesh`] triangulates and refines it.
+//! The types and [`triangulate`] below are the interface; `region` makes
+//! the region and free space, `mesh` triangulates and refines it (with
+//! `lattice` points over open ground and `bisect` for the edge bound).
 
 mod bisect;
+mod lattice;
 mod mesh;
 mod region;
 

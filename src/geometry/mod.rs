@@ -3,7 +3,7 @@
 //! by eps. Owns everything between valid buildings and shrunk occluders.
 //!
 //! The types and functions below are the interface; the work is done in
-//! [`merge`] (blocks and levels) and [`erode`] (conservative erosion), with
+//! `merge` (blocks and levels) and `erode` (conservative erosion), with
 //! [`convert`] translating to and from `geo` for the boolean operations.
 
 pub mod convert;

@@ -1,0 +1,165 @@
+//! A triangular lattice of points over the open parts of free space, kept
+//! clear of the outlines, and the bucket grid of outline segments that
+//! answers "is any outline this close?".
+
+use glam::DVec2;
+
+use crate::model::{MultiPolygon, Rect, distance_to_segment, polygon_edges};
+
+/// Most buckets the segment grid may have (it coarsens beyond).
+const MAX_BUCKETS: f64 = 1e6;
+
+/// Points of a triangular lattice with the given spacing over the bounding
+/// box of `free`, row by row, that are at least `clearance` from every
+/// outline of `free` and that `keep` accepts (the caller decides what is
+/// inside free space). The lattice is an optimisation only: none when it
+/// would have more than `max_sites` sites.
+pub fn lattice_points(
+    free: &MultiPolygon,
+    spacing: f64,
+    clearance: f64,
+    max_sites: usize,
+    mut keep: impl FnMut(DVec2) -> bool,
+) -> Vec<DVec2> {
+    let bounds = Rect::of_points(free.iter().flat_map(|p| p.exterior.iter()));
+    if bounds.is_empty() || spacing.is_nan() || spacing <= 0.0 {
+        return Vec::new();
+    }
+    let row = spacing * 3f64.sqrt() / 2.0;
+    let sites = (bounds.width() / spacing + 1.0) * (bounds.height() / row + 1.0);
+    if sites.is_nan() || sites > max_sites as f64 {
+        return Vec::new();
+    }
+    let outlines = SegmentGrid::new(free, bounds, clearance);
+    let rows = (bounds.height() / row).floor() as usize;
+    let mut points = Vec::new();
+    for j in 0..=rows {
+        let y = bounds.min.y + j as f64 * row;
+        let shift = if j % 2 == 1 { 0.5 * spacing } else { 0.0 };
+        let columns = ((bounds.width() - shift) / spacing).floor() as usize;
+        for i in 0..=columns {
+            let p = DVec2::new(bounds.min.x + shift + i as f64 * spacing, y);
+            if !outlines.any_within(p, clearance) && keep(p) {
+                points.push(p);
+            }
+        }
+    }
+    points
+}
+
+/// The outline segments bucketed on a uniform grid.
+struct SegmentGrid {
+    segments: Vec<(DVec2, DVec2)>,
+    buckets: Vec<Vec<u32>>,
+    origin: DVec2,
+    size: f64,
+    nx: usize,
+    ny: usize,
+}
+
+impl SegmentGrid {
+    /// Buckets at least `min_size` wide (and few enough) over `bounds`.
+    fn new(free: &MultiPolygon, bounds: Rect, min_size: f64) -> SegmentGrid {
+        let size = min_size
+            .max((bounds.width() * bounds.height() / MAX_BUCKETS).sqrt())
+            .max(1e-9);
+        let nx = ((bounds.width() / size).ceil() as usize).max(1);
+        let ny = ((bounds.height() / size).ceil() as usize).max(1);
+        let mut grid = SegmentGrid {
+            segments: free.iter().flat_map(polygon_edges).collect(),
+            buckets: vec![Vec::new(); nx * ny],
+            origin: bounds.min,
+            size,
+            nx,
+            ny,
+        };
+        for k in 0..grid.segments.len() {
+            let (a, b) = grid.segments[k];
+            let (x0, y0) = grid.bucket_of(a.min(b));
+            let (x1, y1) = grid.bucket_of(a.max(b));
+            for y in y0..=y1 {
+                for x in x0..=x1 {
+                    grid.buckets[y * nx + x].push(k as u32);
+                }
+            }
+        }
+        grid
+    }
+
+    fn bucket_of(&self, p: DVec2) -> (usize, usize) {
+        let c = ((p - self.origin) / self.size).floor();
+        (
+            (c.x.max(0.0) as usize).min(self.nx - 1),
+            (c.y.max(0.0) as usize).min(self.ny - 1),
+        )
+    }
+
+    /// Whether any segment comes closer than `distance` to `p`.
+    fn any_within(&self, p: DVec2, distance: f64) -> bool {
+        let reach = (distance / self.size).ceil() as usize;
+        let (cx, cy) = self.bucket_of(p);
+        for y in cy.saturating_sub(reach)..=(cy + reach).min(self.ny - 1) {
+            for x in cx.saturating_sub(reach)..=(cx + reach).min(self.nx - 1) {
+                for &k in &self.buckets[y * self.nx + x] {
+                    let (a, b) = self.segments[k as usize];
+                    if distance_to_segment(p, a, b) < distance {
+                        return true;
+                    }
+                }
+            }
+        }
+        false
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::Polygon;
+
+    #[test]
+    fn lattice_keeps_clear_of_outlines() {
+        let square = |x0: f64, y0: f64, s: f64| {
+            vec![
+                DVec2::new(x0, y0),
+                DVec2::new(x0 + s, y0),
+                DVec2::new(x0 + s, y0 + s),
+                DVec2::new(x0, y0 + s),
+            ]
+        };
+        let mut hole = square(40.0, 40.0, 20.0);
+        hole.reverse();
+        let free = vec![Polygon {
+            exterior: square(0.0, 0.0, 100.0),
+            holes: vec![hole],
+        }];
+        let points = lattice_points(&free, 10.0, 7.0, 1000, |_| true);
+        assert!(lattice_points(&free, 10.0, 7.0, 100, |_| true).is_empty());
+        let right = lattice_points(&free, 10.0, 7.0, 1000, |p| p.x > 50.0);
+        assert!(!right.is_empty() && right.len() < points.len());
+        assert!(!points.is_empty());
+        let edges: Vec<_> = polygon_edges(&free[0]).collect();
+        for p in &points {
+            let d = edges
+                .iter()
+                .map(|&(a, b)| distance_to_segment(*p, a, b))
+                .fold(f64::INFINITY, f64::min);
+            assert!(d >= 7.0);
+        }
+        // Brute force agrees on the count of lattice sites kept.
+        let row = 10.0 * 3f64.sqrt() / 2.0;
+        let mut expected = 0;
+        for j in 0..=((100.0 / row) as usize) {
+            let shift = if j % 2 == 1 { 5.0 } else { 0.0 };
+            for i in 0..=(((100.0 - shift) / 10.0) as usize) {
+                let p = DVec2::new(shift + i as f64 * 10.0, j as f64 * row);
+                let d = edges
+                    .iter()
+                    .map(|&(a, b)| distance_to_segment(p, a, b))
+                    .fold(f64::INFINITY, f64::min);
+                expected += usize::from(d >= 7.0);
+            }
+        }
+        assert_eq!(points.len(), expected);
+    }
+}
