@@ -1,7 +1,6 @@
 //! `citypvs bake`: read (or generate) a city, prepare it, compute every
 //! cell's PVS, write the `.pvs` file atomically and print a summary.
 
-use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -130,7 +129,7 @@ fn run_in_pool(args: &BakeArgs, threads: usize) -> Result<i32> {
         },
     );
 
-    let bar = progress_bar(args.quiet, scene.cells.triangles.len() as u64);
+    let bar = super::common::progress_bar(args.quiet, "cells", scene.cells.triangles.len() as u64);
     let tick = |n: u64| {
         if let Some(b) = &bar {
             b.inc(n)
@@ -184,18 +183,6 @@ fn run_in_pool(args: &BakeArgs, threads: usize) -> Result<i32> {
         print_summary(&summary);
     }
     Ok(0)
-}
-
-fn progress_bar(quiet: bool, cells: u64) -> Option<indicatif::ProgressBar> {
-    if quiet || !std::io::stderr().is_terminal() {
-        return None;
-    }
-    let bar = indicatif::ProgressBar::new(cells);
-    let style =
-        indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} cells  {per_sec}  eta {eta}")
-            .expect("valid template");
-    bar.set_style(style);
-    Some(bar)
 }
 
 fn print_summary(s: &Summary) {

@@ -85,3 +85,17 @@ impl SceneArgs {
         })
     }
 }
+
+/// A progress bar on standard error counting `total` `unit`s (with rate and
+/// time left), or none when `quiet` or when standard error is not a terminal.
+pub fn progress_bar(quiet: bool, unit: &str, total: u64) -> Option<indicatif::ProgressBar> {
+    use std::io::IsTerminal;
+    if quiet || !std::io::stderr().is_terminal() {
+        return None;
+    }
+    let template = format!("{{bar:40}} {{pos}}/{{len}} {unit}  {{per_sec}}  eta {{eta}}");
+    let style = indicatif::ProgressStyle::with_template(&template).expect("valid template");
+    let bar = indicatif::ProgressBar::new(total);
+    bar.set_style(style);
+    Some(bar)
+}

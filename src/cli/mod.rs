@@ -8,8 +8,8 @@ pub mod common;
 pub mod generate;
 pub mod inspect;
 pub mod prepare;
-pub mod verify;
 pub mod render;
+pub mod verify;
 
 use clap::{Parser, Subcommand};
 

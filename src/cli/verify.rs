@@ -3,7 +3,6 @@
 //! exit 1 when some building seen from a cell is missing from its PVS.
 
 use std::collections::HashMap;
-use std::io::IsTerminal;
 use std::path::PathBuf;
 
 use clap::Args;
@@ -139,7 +138,8 @@ fn run_in_pool(args: &VerifyArgs, threads: usize) -> Result<i32> {
     let checked = options
         .cells
         .map_or(reader.cell_count(), |k| k.min(reader.cell_count()));
-    let bar = progress_bar(args.quiet, (checked * args.samples) as u64);
+    let bar =
+        super::common::progress_bar(args.quiet, "viewpoints", (checked * args.samples) as u64);
     let tick = |n: u64| {
         if let Some(b) = &bar {
             b.inc(n)
@@ -190,19 +190,6 @@ fn run_in_pool(args: &VerifyArgs, threads: usize) -> Result<i32> {
         print_table(&verdict);
     }
     Ok(if passed { 0 } else { 1 })
-}
-
-fn progress_bar(quiet: bool, viewpoints: u64) -> Option<indicatif::ProgressBar> {
-    if quiet || !std::io::stderr().is_terminal() {
-        return None;
-    }
-    let bar = indicatif::ProgressBar::new(viewpoints);
-    let style = indicatif::ProgressStyle::with_template(
-        "{bar:40} {pos}/{len} viewpoints  {per_sec}  eta {eta}",
-    )
-    .expect("valid template");
-    bar.set_style(style);
-    Some(bar)
 }
 
 fn print_table(v: &Verdict) {

@@ -54,7 +54,9 @@ impl Default for Horizon {
             chain_points: Vec::new(),
             chain_angles: Vec::new(),
             bin_nearness: Vec::new(),
-            border_dirs: (0..BINS).map(|b| direction_of(b as f64 * BIN_WIDTH)).collect(),
+            border_dirs: (0..BINS)
+                .map(|b| direction_of(b as f64 * BIN_WIDTH))
+                .collect(),
             group_min: vec![f64::NEG_INFINITY; BINS / GROUP],
         }
     }
@@ -64,7 +66,11 @@ impl Default for Horizon {
 /// strictly increasing counter-clockwise.
 fn pseudo_angle(d: DVec2) -> f64 {
     if d.y >= 0.0 {
-        if d.x >= 0.0 { d.y / (d.x + d.y) } else { 1.0 - d.x / (d.y - d.x) }
+        if d.x >= 0.0 {
+            d.y / (d.x + d.y)
+        } else {
+            1.0 - d.x / (d.y - d.x)
+        }
     } else if d.x < 0.0 {
         2.0 - d.y / (-d.x - d.y)
     } else {
@@ -118,7 +124,13 @@ impl Horizon {
     /// chain's arc is raised to (height - eye) / d, where d is the greatest
     /// distance from the eye to the parts of the chain inside that bin's
     /// wedge: every ray of the bin meets the chain no farther than d.
-    pub fn add_chain(&mut self, v: DVec2, eye: f64, height: f64, points: impl Iterator<Item = DVec2>) {
+    pub fn add_chain(
+        &mut self,
+        v: DVec2,
+        eye: f64,
+        height: f64,
+        points: impl Iterator<Item = DVec2>,
+    ) {
         if height <= eye {
             return;
         }
@@ -138,8 +150,16 @@ impl Horizon {
             reference = unwrapped_angle(v, p, reference);
             self.chain_angles.push(reference);
         }
-        let lo = self.chain_angles.iter().copied().fold(f64::INFINITY, f64::min);
-        let hi = self.chain_angles.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let lo = self
+            .chain_angles
+            .iter()
+            .copied()
+            .fold(f64::INFINITY, f64::min);
+        let hi = self
+            .chain_angles
+            .iter()
+            .copied()
+            .fold(f64::NEG_INFINITY, f64::max);
         if hi - lo >= TURN / 2.0 {
             // The chain wraps half way round the eye or more; skip it.
             return;
@@ -160,7 +180,8 @@ impl Horizon {
             return;
         }
         self.bin_nearness.clear();
-        self.bin_nearness.resize((top - base + 1) as usize, f64::INFINITY);
+        self.bin_nearness
+            .resize((top - base + 1) as usize, f64::INFINITY);
         for i in 0..n - 1 {
             let (a, b) = (self.chain_points[i], self.chain_points[i + 1]);
             let (mut ta, mut tb) = (self.chain_angles[i], self.chain_angles[i + 1]);
@@ -179,7 +200,11 @@ impl Horizon {
             // reciprocal of the edge's farther end.
             let nearness_at = |border: i64| -> f64 {
                 let q = dirs[wrap(border)].dot(normal) / offset;
-                if q.is_finite() && q > 0.0 { q.max(far_nearness) } else { far_nearness }
+                if q.is_finite() && q > 0.0 {
+                    q.max(far_nearness)
+                } else {
+                    far_nearness
+                }
             };
             let first = bin_of(ta);
             let last = bin_of(tb);
@@ -187,7 +212,11 @@ impl Horizon {
             let mut lower = 1.0 / da;
             for bin in first..=last {
                 let upper_border = bin + 1;
-                let upper = if upper_border as f64 * BIN_WIDTH >= tb { 1.0 / db } else { nearness_at(upper_border) };
+                let upper = if upper_border as f64 * BIN_WIDTH >= tb {
+                    1.0 / db
+                } else {
+                    nearness_at(upper_border)
+                };
                 let slot = &mut self.bin_nearness[(bin - base) as usize];
                 *slot = slot.min(lower).min(upper);
                 lower = upper;

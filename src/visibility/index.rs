@@ -120,7 +120,11 @@ impl SceneIndex {
         }
         let bucket_heights = buckets
             .iter()
-            .map(|b| b.iter().map(|&e| edges[e as usize].height).fold(0.0, f64::max))
+            .map(|b| {
+                b.iter()
+                    .map(|&e| edges[e as usize].height)
+                    .fold(0.0, f64::max)
+            })
             .collect();
         let objects: Vec<ObjectRaster> = buildings
             .iter()
@@ -195,7 +199,8 @@ impl SceneIndex {
     /// The square bucket `b` covers.
     pub fn bucket_rect(&self, b: usize) -> Rect {
         let nx = self.bucket_dims.0;
-        let min = self.bucket_origin + DVec2::new((b % nx) as f64, (b / nx) as f64) * self.bucket_size;
+        let min =
+            self.bucket_origin + DVec2::new((b % nx) as f64, (b / nx) as f64) * self.bucket_size;
         Rect {
             min,
             max: min + DVec2::splat(self.bucket_size),
@@ -246,8 +251,16 @@ fn collect_edges(occluders: &[Occluder]) -> Vec<OccluderEdge> {
                     let b = ring[(i + 1) % ring.len()];
                     let pieces = (a.distance(b) / MAX_EDGE_PIECE).ceil().max(1.0) as usize;
                     for k in 0..pieces {
-                        let p = if k == 0 { a } else { a.lerp(b, k as f64 / pieces as f64) };
-                        let q = if k + 1 == pieces { b } else { a.lerp(b, (k + 1) as f64 / pieces as f64) };
+                        let p = if k == 0 {
+                            a
+                        } else {
+                            a.lerp(b, k as f64 / pieces as f64)
+                        };
+                        let q = if k + 1 == pieces {
+                            b
+                        } else {
+                            a.lerp(b, (k + 1) as f64 / pieces as f64)
+                        };
                         let next = edges.len() as u32 + 1;
                         edges.push(OccluderEdge {
                             a: p,
@@ -362,13 +375,14 @@ fn build_pyramid(objects: &[ObjectRaster]) -> (Vec<PyramidNode>, Option<u32>) {
                 };
                 for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
                     let (cx, cy) = (2 * x + dx, 2 * y + dy);
-                    if cx < nx && cy < ny {
-                        if let Some(c) = current[cy * nx + cx] {
-                            let child = &nodes[c as usize];
-                            node.rect = node.rect.union(&child.rect);
-                            node.max_height = node.max_height.max(child.max_height);
-                            node.children.push(c);
-                        }
+                    if cx < nx
+                        && cy < ny
+                        && let Some(c) = current[cy * nx + cx]
+                    {
+                        let child = &nodes[c as usize];
+                        node.rect = node.rect.union(&child.rect);
+                        node.max_height = node.max_height.max(child.max_height);
+                        node.children.push(c);
                     }
                 }
                 if !node.children.is_empty() {

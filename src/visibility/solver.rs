@@ -106,7 +106,10 @@ impl<'a> Solver<'a> {
         self.queue.clear();
         let Some(root) = self.index.root else { return };
         let index = self.index;
-        self.queue.push(Reverse((key(rect_distance(v, &index.pyramid[root as usize].rect)), Item::Node(root))));
+        self.queue.push(Reverse((
+            key(rect_distance(v, &index.pyramid[root as usize].rect)),
+            Item::Node(root),
+        )));
         let window = self.window.rect();
         while let Some(Reverse((k, item))) = self.queue.pop() {
             let r = f64::from_bits(k);
@@ -114,7 +117,10 @@ impl<'a> Solver<'a> {
             match item {
                 Item::Node(n) => {
                     let node = &index.pyramid[n as usize];
-                    if self.horizon.hides_rect(v, self.eye, &node.rect, node.max_height) {
+                    if self
+                        .horizon
+                        .hides_rect(v, self.eye, &node.rect, node.max_height)
+                    {
                         continue;
                     }
                     for &c in &node.children {
@@ -142,10 +148,17 @@ impl<'a> Solver<'a> {
     fn object_hidden(&self, v: DVec2, o: u32, window: &Rect) -> bool {
         let object = &self.index.objects[o as usize];
         let mut outside = false;
-        if object.rect.intersects(window) && !self.window.spans_hidden(&object.spans, object.height, &mut outside) {
+        if object.rect.intersects(window)
+            && !self
+                .window
+                .spans_hidden(&object.spans, object.height, &mut outside)
+        {
             return false;
         }
-        contains(window, &object.rect) || self.horizon.hides_rect(v, self.eye, &object.rect, object.height)
+        contains(window, &object.rect)
+            || self
+                .horizon
+                .hides_rect(v, self.eye, &object.rect, object.height)
     }
 
     /// Add to the horizon every chain whose farthest vertex is nearer than `r`.
@@ -158,7 +171,8 @@ impl<'a> Solver<'a> {
             self.swept_rings += 1;
             let ring = self.swept_rings;
             let (stamp, eye) = (self.stamp, self.eye);
-            let (edge_stamp, chains, horizon) = (&mut self.edge_stamp, &mut self.chains, &self.horizon);
+            let (edge_stamp, chains, horizon) =
+                (&mut self.edge_stamp, &mut self.chains, &self.horizon);
             let stride = chain_stride((ring - 1).max(0) as f64 * index.bucket_size());
             index.buckets_in_ring(v, ring, |bucket| {
                 let height = index.bucket_height(bucket);
@@ -170,13 +184,18 @@ impl<'a> Solver<'a> {
                 // bucket's highest edge: if that is all below the horizon
                 // already, no chain of the bucket can raise it (the horizon
                 // only grows).
-                let reach = index.bucket_rect(bucket).grown(MAX_CHAIN_PIECES as f64 * MAX_EDGE_PIECE);
+                let reach = index
+                    .bucket_rect(bucket)
+                    .grown(MAX_CHAIN_PIECES as f64 * MAX_EDGE_PIECE);
                 if horizon.hides_rect(v, eye, &reach, height) {
                     return;
                 }
                 for &e in index.bucket_edges(bucket) {
                     let edge = &index.edges[e as usize];
-                    if edge.ring_pos % stride != 0 || edge.height <= eye || edge_stamp[e as usize] == stamp {
+                    if !edge.ring_pos.is_multiple_of(stride)
+                        || edge.height <= eye
+                        || edge_stamp[e as usize] == stamp
+                    {
                         continue;
                     }
                     edge_stamp[e as usize] = stamp;
@@ -238,15 +257,21 @@ impl<'a> Solver<'a> {
                 gathered.push((distance_to_segment(v, edge.a, edge.b), e));
             }
         });
-        self.gathered.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+        self.gathered
+            .sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
         for &(_, e) in &self.gathered {
             let edge = &index.edges[e as usize];
             // The solid is on the edge's left; the eye faces the edge's outside
             // when it is on its right.
             let eye_outside = (edge.b - edge.a).perp_dot(v - edge.a) < 0.0;
-            let silhouette = if edge.height > self.eye { eye_outside } else { !eye_outside };
+            let silhouette = if edge.height > self.eye {
+                eye_outside
+            } else {
+                !eye_outside
+            };
             if silhouette && !self.window.segment_hidden(edge.a, edge.b, edge.height) {
-                self.window.rasterise_shadow(v, self.eye, edge.a, edge.b, edge.height);
+                self.window
+                    .rasterise_shadow(v, self.eye, edge.a, edge.b, edge.height);
             }
         }
     }
@@ -258,5 +283,8 @@ fn rect_distance(v: DVec2, rect: &Rect) -> f64 {
 }
 
 fn contains(outer: &Rect, inner: &Rect) -> bool {
-    inner.min.x >= outer.min.x && inner.min.y >= outer.min.y && inner.max.x <= outer.max.x && inner.max.y <= outer.max.y
+    inner.min.x >= outer.min.x
+        && inner.min.y >= outer.min.y
+        && inner.max.x <= outer.max.x
+        && inner.max.y <= outer.max.y
 }
