@@ -160,8 +160,11 @@ impl Horizon {
             .iter()
             .copied()
             .fold(f64::NEG_INFINITY, f64::max);
-        if hi - lo >= TURN / 2.0 {
-            // The chain wraps half way round the eye or more; skip it.
+        if hi - lo >= TURN {
+            // The chain winds all the way round the eye: its arc is not an
+            // interval of directions; skip it. (Each piece spans less than
+            // half a turn, so the step-by-step unwrapping above follows the
+            // chain's directions continuously.)
             return;
         }
         let base = bin_of(lo);

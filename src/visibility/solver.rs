@@ -201,23 +201,13 @@ impl<'a> Solver<'a> {
                     edge_stamp[e as usize] = stamp;
                     let pieces = stride + 1;
                     let mut d_max = edge.a.distance(v);
-                    let mut faces_eye = false;
                     let mut cur = e;
                     for _ in 0..pieces {
                         let c = &index.edges[cur as usize];
                         d_max = d_max.max(c.b.distance(v));
-                        // The solid is on the edge's left: the eye sees the
-                        // edge's outside when it is on its right.
-                        faces_eye |= (c.b - c.a).perp_dot(v - c.a) < 0.0;
                         cur = c.next;
                     }
-                    // Every ray that crosses a ring enters it through an edge
-                    // facing the eye, so chains of back faces add nothing the
-                    // front faces don't already give (any subset of chains
-                    // gives a valid, if lower, horizon).
-                    if faces_eye {
-                        chains.push(Reverse((key(d_max), e, pieces)));
-                    }
+                    chains.push(Reverse((key(d_max), e, pieces)));
                 }
             });
         }
