@@ -15,9 +15,34 @@ pub fn write_atomically(path: &Path, contents: &[u8]) -> Result<()> {
     };
     let fail =
         |e: std::io::Error| crate::Error::new(format!("{}: cannot write: {e}", path.display()));
-    let mut tmp = tempfile::NamedTempFile::new_in(&dir).map_err(fail)?;
+    let mut builder = tempfile::Builder::new();
+    // Like a plain create: readable by others as the umask allows (a
+    // temporary file would otherwise be private to its owner).
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        builder.permissions(std::fs::Permissions::from_mode(0o666));
+    }
+    let mut tmp = builder.tempfile_in(&dir).map_err(fail)?;
     tmp.write_all(contents).map_err(fail)?;
     tmp.as_file().sync_all().map_err(fail)?;
     tmp.persist(path).map_err(|e| fail(e.error))?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn written_files_get_the_permissions_of_a_plain_create() {
+        let dir = tempfile::tempdir().unwrap();
+        let plain = dir.path().join("plain");
+        let atomic = dir.path().join("atomic");
+        std::fs::write(&plain, b"x").unwrap();
+        write_atomically(&atomic, b"x").unwrap();
+        assert_eq!(std::fs::read(&atomic).unwrap(), b"x");
+        let mode = |p: &Path| std::fs::metadata(p).unwrap().permissions();
+        assert_eq!(mode(&atomic), mode(&plain));
+    }
 }
