@@ -53,7 +53,10 @@ fn bake_without_a_city_bakes_the_default_city_and_inspect_reads_it() {
     }
     let (ok, stdout, stderr) = citypvs(dir.path(), &["inspect", "default-city.pvs"]);
     assert!(ok, "{stderr}");
-    assert!(stdout.contains(&format!("cells:        {cells}")), "{stdout}");
+    assert!(
+        stdout.contains(&format!("cells:        {cells}")),
+        "{stdout}"
+    );
 }
 
 #[test]
@@ -72,7 +75,15 @@ fn output_is_identical_for_any_thread_count() {
     let dir = tempfile::tempdir().unwrap();
     let (ok, _, stderr) = citypvs(
         dir.path(),
-        &["generate", "--buildings", "80", "--seed", "3", "-o", "city.geojson"],
+        &[
+            "generate",
+            "--buildings",
+            "80",
+            "--seed",
+            "3",
+            "-o",
+            "city.geojson",
+        ],
     );
     assert!(ok, "{stderr}");
     let mut files = Vec::new();
@@ -80,7 +91,15 @@ fn output_is_identical_for_any_thread_count() {
         let out = format!("city-{threads}.pvs");
         let (ok, _, stderr) = citypvs(
             dir.path(),
-            &["bake", "city.geojson", "-o", &out, "--threads", threads, "-q"],
+            &[
+                "bake",
+                "city.geojson",
+                "-o",
+                &out,
+                "--threads",
+                threads,
+                "-q",
+            ],
         );
         assert!(ok, "{stderr}");
         files.push(std::fs::read(dir.path().join(out)).unwrap());
