@@ -101,11 +101,7 @@ fn output_path(args: &BakeArgs) -> PathBuf {
 }
 
 pub fn run(args: &BakeArgs) -> Result<i32> {
-    let threads = args.threads.unwrap_or(0);
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .map_err(|e| crate::Error::new(format!("cannot start {threads} worker threads: {e}")))?;
+    let pool = super::common::thread_pool(args.threads)?;
     pool.install(|| run_in_pool(args, pool.current_num_threads()))
 }
 

@@ -48,10 +48,7 @@ struct Row {
 }
 
 pub fn run(args: &BenchArgs) -> Result<i32> {
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(args.threads.unwrap_or(0))
-        .build()
-        .map_err(|e| crate::Error::new(format!("cannot start worker threads: {e}")))?;
+    let pool = super::common::thread_pool(args.threads)?;
     if !args.json {
         println!(
             "{:>9} {:>8} {:>9} {:>9} {:>9} {:>10} {:>9} {:>8} {:>7} {:>9}",

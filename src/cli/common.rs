@@ -99,3 +99,12 @@ pub fn progress_bar(quiet: bool, unit: &str, total: u64) -> Option<indicatif::Pr
     bar.set_style(style);
     Some(bar)
 }
+
+/// The worker pool for `--threads` (`None`: one thread per core).
+pub fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
+    let threads = threads.unwrap_or(0);
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| crate::Error::new(format!("cannot start {threads} worker threads: {e}")))
+}

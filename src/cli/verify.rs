@@ -70,11 +70,7 @@ pub fn run(args: &VerifyArgs) -> Result<i32> {
     if args.cells == 0 && !args.all {
         return Err(Error::new("--cells must be at least 1"));
     }
-    let threads = args.threads.unwrap_or(0);
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .map_err(|e| Error::new(format!("cannot start {threads} worker threads: {e}")))?;
+    let pool = super::common::thread_pool(args.threads)?;
     pool.install(|| run_in_pool(args, pool.current_num_threads()))
 }
 

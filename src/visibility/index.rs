@@ -145,6 +145,12 @@ impl SceneIndex {
         }
     }
 
+    /// The bucket column and row holding `v` (possibly outside the grid).
+    fn bucket_of(&self, v: DVec2) -> (i64, i64) {
+        let q = ((v - self.bucket_origin) / self.bucket_size).floor();
+        (q.x as i64, q.y as i64)
+    }
+
     /// Side of an edge bucket in metres.
     pub fn bucket_size(&self) -> f64 {
         self.bucket_size
@@ -154,8 +160,7 @@ impl SceneIndex {
     /// still touches the bucket grid.
     pub fn max_bucket_ring(&self, v: DVec2) -> i64 {
         let (nx, ny) = self.bucket_dims;
-        let q = ((v - self.bucket_origin) / self.bucket_size).floor();
-        let (x, y) = (q.x as i64, q.y as i64);
+        let (x, y) = self.bucket_of(v);
         let dx = x.abs().max((x - (nx as i64 - 1)).abs());
         let dy = y.abs().max((y - (ny as i64 - 1)).abs());
         dx.max(dy)
@@ -165,8 +170,7 @@ impl SceneIndex {
     /// the bucket containing `v`.
     pub fn buckets_in_ring(&self, v: DVec2, ring: i64, mut f: impl FnMut(usize)) {
         let (nx, ny) = (self.bucket_dims.0 as i64, self.bucket_dims.1 as i64);
-        let q = ((v - self.bucket_origin) / self.bucket_size).floor();
-        let (cx, cy) = (q.x as i64, q.y as i64);
+        let (cx, cy) = self.bucket_of(v);
         let mut visit = |x: i64, y: i64| {
             if x >= 0 && y >= 0 && x < nx && y < ny {
                 f((y * nx + x) as usize);
