@@ -8,8 +8,8 @@ use clap::Args;
 
 use crate::Result;
 use crate::input::{InputOptions, read_city_bytes};
-use crate::prepare::{PrepareParams, prepare};
-use crate::visibility::VisibilityParams;
+use crate::prepare::prepare;
+use crate::settings::Settings;
 
 #[derive(Args, Debug)]
 pub struct BenchArgs {
@@ -76,21 +76,11 @@ pub fn run(args: &BenchArgs) -> Result<i32> {
             &format!("<generated {n}>"),
             &InputOptions::default(),
         )?;
-        let params = PrepareParams::default();
         let t = Instant::now();
-        let scene = prepare(city, &params)?;
+        let scene = pool.install(|| prepare(city, &Settings::default()))?;
         let prepare_seconds = t.elapsed().as_secs_f64();
-        let vis = VisibilityParams::for_eps(params.eps);
         let t = Instant::now();
-        let (data, stats, _) = pool.install(|| {
-            crate::bake::bake(
-                &scene,
-                &vis,
-                params.cells.max_edge,
-                params.cells.margin,
-                &|_| {},
-            )
-        })?;
+        let (data, stats, _) = pool.install(|| crate::bake::bake(&scene, &|_| {}))?;
         let bake_seconds = t.elapsed().as_secs_f64();
         let written = crate::pvs::write_pvs(&dir.path().join(format!("bench-{n}.pvs")), &data)?;
         let cells = stats.cells.max(1) as f64;

@@ -33,8 +33,8 @@ pub fn run(args: &PrepareArgs) -> Result<i32> {
     let t = Instant::now();
     let city = read_city(&args.city, &args.input.options())?;
     let read_seconds = t.elapsed().as_secs_f64();
-    let params = args.scene.params(&city.frame)?;
-    let mut scene = prepare(city, &params)?;
+    let settings = super::common::settings(&args.scene, None, &city.frame)?;
+    let mut scene = prepare(city, &settings)?;
     scene.timings.insert(
         0,
         StageTime {

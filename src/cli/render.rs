@@ -6,12 +6,12 @@ use std::path::{Path, PathBuf};
 
 use clap::{Args, ValueEnum};
 
-use super::common::{InputArgs, SceneArgs};
+use super::common::{InputArgs, SceneArgs, ViewArgs};
 use crate::input::read_city;
 use crate::prepare::{Scene, prepare};
 use crate::pvs::PvsReader;
 use crate::render::{DEFAULT_SIZE, Focus, Picture, Rendered, cell_containing, render, view_around};
-use crate::visibility::{DEFAULT_EYE_HEIGHT, VisibilityParams, cell_cull_map, compute_pvs};
+use crate::visibility::VisibilityEngine;
 use crate::{Error, Result};
 
 /// Half-size in metres of the cull map drawn around the chosen cell when
@@ -34,10 +34,12 @@ pub struct RenderArgs {
     /// Output PNG file.
     #[arg(short, long, value_name = "FILE")]
     pub output: PathBuf,
-    /// A .pvs file baked from the same city with the same scene options: the
-    /// visible sets, eye height and pixel size are read from it. Without it
-    /// the chosen cell's set (and with --layer pvs-size every cell's) is
-    /// computed here with the bake's code.
+    /// A .pvs file baked from the same city: the settings it was baked with
+    /// (eps, cell edge, margin, eye height, pixel) and the visible sets are
+    /// read from it, so scene and view flags cannot be given with it (only
+    /// --region, which must be the bake's). Without it the chosen cell's set
+    /// (and with --layer pvs-size every cell's) is computed here with the
+    /// bake's code.
     #[arg(long, value_name = "FILE")]
     pub pvs: Option<PathBuf>,
     /// Show this cell (numbered from 0, as in `inspect`) and what it sees.
@@ -59,13 +61,12 @@ pub struct RenderArgs {
     /// 160 m cull map].
     #[arg(long, value_name = "METRES")]
     pub radius: Option<f64>,
-    /// Eye height in metres when there is no --pvs (a .pvs file brings its own).
-    #[arg(long, default_value_t = DEFAULT_EYE_HEIGHT, value_name = "METRES", conflicts_with = "pvs")]
-    pub eye_height: f64,
     #[command(flatten)]
     pub input: InputArgs,
     #[command(flatten)]
     pub scene: SceneArgs,
+    #[command(flatten)]
+    pub view: ViewArgs,
 }
 
 /// Parse "X,Y" into two finite numbers.
@@ -84,42 +85,51 @@ fn parse_point(text: &str) -> Result<(f64, f64)> {
     Ok((x, y))
 }
 
-/// Open the .pvs file and make sure it was baked from this scene.
-fn open_pvs(path: &Path, scene: &Scene, args: &RenderArgs) -> Result<PvsReader> {
-    let reader = PvsReader::open(path)?;
+/// Check that the .pvs file was baked from this scene (prepared with the
+/// file's own settings).
+fn check_pvs(path: &Path, reader: &PvsReader, scene: &Scene, args: &RenderArgs) -> Result<()> {
     let info = reader.info();
     if info.source_hash != scene.city.source_hash {
-        return Err(Error::new(format!(
+        return Err(Error::mismatch(format!(
             "{} was baked from a different input than {} (the SHA-256 of the input differs)",
             path.display(),
             args.city.display()
+        )));
+    }
+    let baked = crate::bake::settings_of(info, scene.settings.region.clone())?;
+    if baked != scene.settings {
+        return Err(Error::mismatch(format!(
+            "{} was baked with eps {}, max cell edge {}, margin {}, eye height {}, pixel {}, but the scene was \
+             prepared with eps {}, max cell edge {}, margin {}, eye height {}, pixel {}",
+            path.display(),
+            baked.eps,
+            baked.max_cell_edge,
+            baked.margin,
+            baked.eye_height,
+            baked.pixel,
+            scene.settings.eps,
+            scene.settings.max_cell_edge,
+            scene.settings.margin,
+            scene.settings.eye_height,
+            scene.settings.pixel
         )));
     }
     let ids_match = reader
         .object_ids()
         .iter()
         .eq(scene.city.buildings.iter().map(|b| &b.id));
-    if !ids_match
-        || info.eps != scene.eps
-        || reader.cell_triangles() != scene.cells.triangles.as_slice()
-    {
-        return Err(Error::new(format!(
-            "{}: its {} cells and {} objects (eps {}) are not the {} cells and {} buildings (eps {}) \
-             prepared here; it was baked with --eps {} --max-cell-edge {} --margin {}: pass the same scene options \
-             (and the same --default-height, --region and --metric)",
+    if !ids_match || reader.cell_triangles() != scene.cells.triangles.as_slice() {
+        return Err(Error::mismatch(format!(
+            "{}: its {} cells and {} objects are not the {} cells and {} buildings prepared here with its \
+             settings: pass the same --default-height, --region and --metric as the bake",
             path.display(),
             reader.cell_count(),
             reader.object_ids().len(),
-            info.eps,
             scene.cells.triangles.len(),
             scene.city.buildings.len(),
-            scene.eps,
-            info.eps,
-            info.max_cell_edge,
-            info.margin
         )));
     }
-    Ok(reader)
+    Ok(())
 }
 
 fn chosen_cell(
@@ -179,42 +189,34 @@ pub struct Drawing {
     pub focus: Option<Focus>,
 }
 
-/// Everything after preparation: open the .pvs file if any, choose the
+/// Everything after preparation: check the .pvs file if any, choose the
 /// cell, gather its visible set, cull map and the PVS sizes as asked, draw.
-pub fn draw(args: &RenderArgs, scene: &Scene) -> Result<Drawing> {
+pub fn draw(args: &RenderArgs, scene: &Scene, reader: Option<&PvsReader>) -> Result<Drawing> {
     check_args(args)?;
-    let reader = match &args.pvs {
-        Some(path) => Some(open_pvs(path, scene, args)?),
-        None => None,
-    };
-    let params = match &reader {
-        Some(r) => VisibilityParams {
-            eye_height: r.info().eye_height,
-            pixel: r.info().pixel,
-            ..VisibilityParams::for_eps(scene.eps)
-        },
-        None => VisibilityParams {
-            eye_height: args.eye_height,
-            ..VisibilityParams::for_eps(scene.eps)
-        },
-    };
-    let cell = chosen_cell(args, scene, reader.as_ref())?;
+    if let (Some(path), Some(r)) = (&args.pvs, reader) {
+        check_pvs(path, r, scene, args)?;
+    }
+    let cell = chosen_cell(args, scene, reader)?;
     let wants = |layer| args.layer.contains(&layer);
-    let focus = match (cell, &reader) {
-        (Some(c), Some(r)) => Some(Focus::new(scene, &params, c, r.visible(c)?)?),
-        (Some(c), None) => Some(Focus::compute(scene, &params, c)?),
-        (None, _) => None,
+    let needs_engine =
+        wants(Layer::Cullmap) || (reader.is_none() && (cell.is_some() || wants(Layer::PvsSize)));
+    let engine = if needs_engine {
+        Some(VisibilityEngine::new(scene)?)
+    } else {
+        None
     };
-    let cull_map = match cell {
-        Some(c) if wants(Layer::Cullmap) => Some(cell_cull_map(
-            scene,
-            &params,
-            c,
-            args.radius.unwrap_or(DEFAULT_CULL_MAP_RADIUS),
-        )),
+    let focus = match (cell, reader, &engine) {
+        (Some(c), Some(r), _) => Some(Focus::new(scene, c, r.visible(c)?)?),
+        (Some(c), None, Some(e)) => Some(Focus::new(scene, c, e.solve_cell(c))?),
         _ => None,
     };
-    let pvs_sizes: Option<Vec<usize>> = match &reader {
+    let cull_map = match (cell, &engine) {
+        (Some(c), Some(e)) if wants(Layer::Cullmap) => {
+            Some(e.cull_map(c, args.radius.unwrap_or(DEFAULT_CULL_MAP_RADIUS))?)
+        }
+        _ => None,
+    };
+    let pvs_sizes: Option<Vec<usize>> = match reader {
         _ if !wants(Layer::PvsSize) => None,
         Some(r) => Some(
             (0..r.cell_count())
@@ -226,8 +228,13 @@ pub fn draw(args: &RenderArgs, scene: &Scene) -> Result<Drawing> {
                 "computing the PVS of all {} cells (pass --pvs FILE to read them from a bake)",
                 scene.cells.triangles.len()
             );
-            let result = compute_pvs(scene, &params, &|_| {})?;
-            Some(result.visible.iter().map(Vec::len).collect())
+            let engine = engine.as_ref().expect("made for the pvs-size layer");
+            let mut sizes = Vec::with_capacity(engine.cell_count());
+            engine.solve_cells(0..engine.cell_count(), &|_| {}, |_, set| {
+                sizes.push(set.len());
+                Ok(())
+            })?;
+            Some(sizes)
         }
     };
     let view = match (cell, args.radius) {
@@ -247,10 +254,32 @@ pub fn draw(args: &RenderArgs, scene: &Scene) -> Result<Drawing> {
 
 pub fn run(args: &RenderArgs) -> Result<i32> {
     check_args(args)?;
+    let reader = match &args.pvs {
+        Some(path) => {
+            let given: Vec<&str> = args
+                .scene
+                .given()
+                .into_iter()
+                .chain(args.view.given())
+                .collect();
+            if !given.is_empty() {
+                return Err(Error::usage(format!(
+                    "{} cannot be given with --pvs: the file's header holds the settings it was baked with",
+                    given.join(", ")
+                )));
+            }
+            Some(PvsReader::open(path)?)
+        }
+        None => None,
+    };
     let city = read_city(&args.city, &args.input.options())?;
-    let prepare_params = args.scene.params(&city.frame)?;
-    let scene = prepare(city, &prepare_params)?;
-    let Drawing { rendered, focus } = draw(args, &scene)?;
+    let region = args.scene.region(&city.frame)?;
+    let settings = match &reader {
+        Some(r) => crate::bake::settings_of(r.info(), region)?,
+        None => super::common::settings(&args.scene, Some(&args.view), &city.frame)?,
+    };
+    let scene = prepare(city, &settings)?;
+    let Drawing { rendered, focus } = draw(args, &scene, reader.as_ref())?;
     let png = rendered.png()?;
     crate::atomic::write_atomically(&args.output, &png)?;
     print!(
