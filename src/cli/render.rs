@@ -10,13 +10,8 @@ use super::common::{InputArgs, SceneArgs, ViewArgs};
 use crate::input::read_city;
 use crate::prepare::{Scene, prepare};
 use crate::pvs::PvsReader;
-use crate::render::{DEFAULT_SIZE, Focus, Picture, Rendered, cell_containing, render, view_around};
-use crate::visibility::VisibilityEngine;
+use crate::render::{DEFAULT_SIZE, Drawing, Request, cell_containing};
 use crate::{Error, Result};
-
-/// Half-size in metres of the cull map drawn around the chosen cell when
-/// no --radius is given.
-pub const DEFAULT_CULL_MAP_RADIUS: f64 = 160.0;
 
 /// Extra picture layers.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -183,73 +178,31 @@ fn check_args(args: &RenderArgs) -> Result<()> {
     Ok(())
 }
 
-/// A drawn picture and the chosen cell it shows, if any.
-pub struct Drawing {
-    pub rendered: Rendered,
-    pub focus: Option<Focus>,
-}
-
-/// Everything after preparation: check the .pvs file if any, choose the
-/// cell, gather its visible set, cull map and the PVS sizes as asked, draw.
+/// Check the arguments and the .pvs file, choose the cell, and hand the
+/// request to [`crate::render::draw`].
 pub fn draw(args: &RenderArgs, scene: &Scene, reader: Option<&PvsReader>) -> Result<Drawing> {
     check_args(args)?;
     if let (Some(path), Some(r)) = (&args.pvs, reader) {
         check_pvs(path, r, scene, args)?;
     }
     let cell = chosen_cell(args, scene, reader)?;
-    let wants = |layer| args.layer.contains(&layer);
-    let needs_engine =
-        wants(Layer::Cullmap) || (reader.is_none() && (cell.is_some() || wants(Layer::PvsSize)));
-    let engine = if needs_engine {
-        Some(VisibilityEngine::new(scene)?)
-    } else {
-        None
-    };
-    let focus = match (cell, reader, &engine) {
-        (Some(c), Some(r), _) => Some(Focus::new(scene, c, r.visible(c)?)?),
-        (Some(c), None, Some(e)) => Some(Focus::new(scene, c, e.solve_cell(c))?),
-        _ => None,
-    };
-    let cull_map = match (cell, &engine) {
-        (Some(c), Some(e)) if wants(Layer::Cullmap) => {
-            Some(e.cull_map(c, args.radius.unwrap_or(DEFAULT_CULL_MAP_RADIUS))?)
-        }
-        _ => None,
-    };
-    let pvs_sizes: Option<Vec<usize>> = match reader {
-        _ if !wants(Layer::PvsSize) => None,
-        Some(r) => Some(
-            (0..r.cell_count())
-                .map(|c| r.visible(c).map(|v| v.len()))
-                .collect::<Result<_>>()?,
-        ),
-        None => {
-            eprintln!(
-                "computing the PVS of all {} cells (pass --pvs FILE to read them from a bake)",
-                scene.cells.triangles.len()
-            );
-            let engine = engine.as_ref().expect("made for the pvs-size layer");
-            let mut sizes = Vec::with_capacity(engine.cell_count());
-            engine.solve_cells(0..engine.cell_count(), &|_| {}, |_, set| {
-                sizes.push(set.len());
-                Ok(())
-            })?;
-            Some(sizes)
-        }
-    };
-    let view = match (cell, args.radius) {
-        (Some(c), Some(r)) => Some(view_around(scene, c, r)),
-        _ => None,
-    };
-    let rendered = render(&Picture {
+    if reader.is_none() && args.layer.contains(&Layer::PvsSize) {
+        eprintln!(
+            "computing the PVS of all {} cells (pass --pvs FILE to read them from a bake)",
+            scene.cells.triangles.len()
+        );
+    }
+    crate::render::draw(
         scene,
-        focus: focus.as_ref(),
-        cull_map: cull_map.as_ref(),
-        pvs_sizes: pvs_sizes.as_deref(),
-        view,
-        width: args.size,
-    })?;
-    Ok(Drawing { rendered, focus })
+        reader,
+        &Request {
+            cell,
+            cull_map: args.layer.contains(&Layer::Cullmap),
+            pvs_size: args.layer.contains(&Layer::PvsSize),
+            radius: args.radius,
+            width: args.size,
+        },
+    )
 }
 
 pub fn run(args: &RenderArgs) -> Result<i32> {

@@ -15,6 +15,7 @@ pub mod font;
 mod legend;
 mod map;
 pub mod palette;
+mod request;
 pub mod viewport;
 
 use glam::DVec2;
@@ -27,6 +28,7 @@ use crate::{Error, Result};
 pub use focus::Focus;
 use legend::{Entry, Mark};
 use palette::Rgb;
+pub use request::{DEFAULT_CULL_MAP_RADIUS, Drawing, Request, draw};
 pub use viewport::Viewport;
 
 /// Default picture width in pixels.
