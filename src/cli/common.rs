@@ -108,3 +108,13 @@ pub fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
         .build()
         .map_err(|e| crate::Error::new(format!("cannot start {threads} worker threads: {e}")))
 }
+
+/// Where a command prints its summary: standard output, or standard error
+/// when one of its outputs is `-` (the file itself goes to standard output).
+pub fn summary_stream(outputs: &[&std::path::Path]) -> Box<dyn std::io::Write> {
+    if outputs.iter().any(|p| crate::atomic::is_stdout(p)) {
+        Box::new(std::io::stderr())
+    } else {
+        Box::new(std::io::stdout())
+    }
+}

@@ -2,6 +2,7 @@
 //! visible set (from a `.pvs` file or computed here), its cull map and every
 //! cell's PVS size as asked, and write the picture as a PNG.
 
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use clap::{Args, ValueEnum};
@@ -247,13 +248,21 @@ pub fn draw(args: &RenderArgs, scene: &Scene) -> Result<Drawing> {
 
 pub fn run(args: &RenderArgs) -> Result<i32> {
     check_args(args)?;
+    let inputs: Vec<&Path> = std::iter::once(&args.city)
+        .chain(args.pvs.iter())
+        .chain(args.scene.region.iter())
+        .map(PathBuf::as_path)
+        .collect();
+    crate::atomic::check_output(&args.output, &inputs)?;
     let city = read_city(&args.city, &args.input.options())?;
     let prepare_params = args.scene.params(&city.frame)?;
     let scene = prepare(city, &prepare_params)?;
     let Drawing { rendered, focus } = draw(args, &scene)?;
     let png = rendered.png()?;
     crate::atomic::write_atomically(&args.output, &png)?;
-    print!(
+    let mut out = super::common::summary_stream(&[&args.output]);
+    let _ = write!(
+        out,
         "wrote {} ({} x {} px, {} KB)",
         args.output.display(),
         rendered.pixmap.width(),
@@ -261,13 +270,14 @@ pub fn run(args: &RenderArgs) -> Result<i32> {
         png.len().div_ceil(1024)
     );
     match &focus {
-        Some(f) => println!(
+        Some(f) => say!(
+            out,
             ": cell {}, {} of {} buildings visible",
             f.cell,
             f.visible.len(),
             scene.city.buildings.len()
         ),
-        None => println!(),
+        None => say!(out, ""),
     }
     Ok(0)
 }
