@@ -100,8 +100,24 @@ pub fn progress_bar(quiet: bool, unit: &str, total: u64) -> Option<indicatif::Pr
     Some(bar)
 }
 
-/// The worker pool for `--threads` (`None`: one thread per core).
+/// The most worker threads `--threads` accepts: four per core, at most 256
+/// (more only adds start-up time and memory; the results are the same).
+pub fn max_threads() -> usize {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    (4 * cores).min(256)
+}
+
+/// The worker pool for `--threads` (`None`: one thread per core). Zero and
+/// more than [`max_threads`] are refused.
 pub fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
+    let max = max_threads();
+    if let Some(n) = threads
+        && (n == 0 || n > max)
+    {
+        return Err(crate::Error::new(format!(
+            "--threads must be between 1 and {max} (4 per core, at most 256) on this machine, got {n}"
+        )));
+    }
     let threads = threads.unwrap_or(0);
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
