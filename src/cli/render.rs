@@ -201,6 +201,23 @@ pub fn draw(args: &RenderArgs, scene: &Scene) -> Result<Drawing> {
     };
     let cell = chosen_cell(args, scene, reader.as_ref())?;
     let wants = |layer| args.layer.contains(&layer);
+    let pixel_from = match &args.pvs {
+        Some(path) => path.display().to_string(),
+        None => format!("--eps {}", scene.eps),
+    };
+    // The cull map is drawn, and the chosen cell's set computed here, on the
+    // cull-map pixel grid: refuse sizes that cannot fit before the work.
+    let uses_grid =
+        wants(Layer::Cullmap) || (reader.is_none() && (cell.is_some() || wants(Layer::PvsSize)));
+    if uses_grid {
+        let cull_map = match cell {
+            Some(c) if wants(Layer::Cullmap) => {
+                Some((c, args.radius.unwrap_or(DEFAULT_CULL_MAP_RADIUS)))
+            }
+            _ => None,
+        };
+        crate::render::check_pixel_counts(scene, params.pixel, &pixel_from, cull_map)?;
+    }
     let focus = match (cell, &reader) {
         (Some(c), Some(r)) => Some(Focus::new(scene, &params, c, r.visible(c)?)?),
         (Some(c), None) => Some(Focus::compute(scene, &params, c)?),
