@@ -45,6 +45,110 @@ pub struct VerifyArgs {
     /// Print everything as one JSON object.
     #[arg(long)]
     pub json: bool,
+    /// The region file the bake was given with --region (the cells are
+    /// compared with the ones prepared for the city with it).
+    #[arg(long, value_name = "FILE")]
+    pub region: Option<PathBuf>,
+    /// Judge the file's cells as they are, without checking that they are
+    /// the cells citypvs prepares for this city with the file's settings
+    /// (for PVS files made by hand or by another tool).
+    #[arg(long)]
+    pub any_cells: bool,
+}
+
+/// Refuse a header no bake writes: settings that are not positive finite
+/// numbers, a pixel too large for its eps, an absurd eye height.
+fn check_header(info: &crate::pvs::BakeInfo, pvs_name: &str) -> Result<()> {
+    let bad = |what: &str, value: f64, rule: &str| {
+        Err(Error::new(format!(
+            "{pvs_name}: not a valid bake: its header's {what} is {value} ({rule})"
+        )))
+    };
+    let positive = |v: f64| v > 0.0 && v.is_finite();
+    if !positive(info.eps) {
+        return bad("eps", info.eps, "it must be a positive number of metres");
+    }
+    if !(positive(info.eye_height) && info.eye_height <= crate::input::height::MAX_HEIGHT) {
+        return bad(
+            "eye height",
+            info.eye_height,
+            "it must be a positive number of metres, at most 1000",
+        );
+    }
+    if !positive(info.pixel) || info.pixel * std::f64::consts::SQRT_2 / 2.0 > info.eps {
+        return bad(
+            "pixel size",
+            info.pixel,
+            &format!(
+                "it must be positive and at most eps * sqrt(2) = {}",
+                info.eps * std::f64::consts::SQRT_2
+            ),
+        );
+    }
+    if !positive(info.max_cell_edge) {
+        return bad(
+            "max cell edge",
+            info.max_cell_edge,
+            "it must be a positive number of metres",
+        );
+    }
+    if !(info.margin >= 0.0 && info.margin.is_finite()) {
+        return bad(
+            "margin",
+            info.margin,
+            "it must be zero or a positive number of metres",
+        );
+    }
+    Ok(())
+}
+
+/// The file's cells must be the ones `bake` makes for this city with the
+/// header's settings: same count, same triangles, in the same order.
+fn check_cells(
+    args: &VerifyArgs,
+    city: &crate::input::City,
+    reader: &PvsReader,
+    pvs_name: &str,
+) -> Result<()> {
+    let info = reader.info();
+    let region = match &args.region {
+        Some(path) => Some(crate::input::read_region(path, &city.frame)?),
+        None => None,
+    };
+    let params = crate::prepare::PrepareParams {
+        eps: info.eps,
+        cells: crate::cells::CellParams {
+            margin: info.margin,
+            max_edge: info.max_cell_edge,
+            region,
+        },
+    };
+    let scene = crate::prepare::prepare(city.clone(), &params)?;
+    let ours = &scene.cells.triangles;
+    let theirs = reader.cell_triangles();
+    if ours.as_slice() == theirs {
+        return Ok(());
+    }
+    let differ = match ours.iter().zip(theirs).position(|(a, b)| a != b) {
+        Some(c) => format!("cell {c} differs"),
+        None => format!("{} cells against {}", theirs.len(), ours.len()),
+    };
+    Err(Error::new(format!(
+        "{pvs_name}: its {} cells are not the {} cells prepared for {} with the file's settings \
+         (--eps {} --max-cell-edge {} --margin {}{}; {differ}): a different city, input flags or --region, \
+         or a file not made by `citypvs bake` (--any-cells judges its cells as they are)",
+        theirs.len(),
+        ours.len(),
+        args.city.display(),
+        info.eps,
+        info.max_cell_edge,
+        info.margin,
+        if args.region.is_some() {
+            " and this --region"
+        } else {
+            ""
+        },
+    )))
 }
 
 /// What `verify --json` prints.
@@ -54,6 +158,9 @@ struct Verdict<'a> {
     pvs: String,
     /// True when the city file's SHA-256 equals the one stored in the PVS.
     source_matches: bool,
+    /// True when the file's cells were found to be the ones prepared for
+    /// the city (false with --any-cells: they were judged as they are).
+    cells_match_city: bool,
     /// The local frame all coordinates below are in.
     frame: String,
     buildings: usize,
@@ -79,6 +186,12 @@ fn run_in_pool(args: &VerifyArgs, threads: usize) -> Result<i32> {
     let pvs_name = args.pvs.display().to_string();
     let reader = PvsReader::open(&args.pvs)?;
     let info = reader.info();
+    check_header(info, &pvs_name)?;
+    if reader.cell_count() == 0 {
+        return Err(Error::new(format!(
+            "{pvs_name}: the file has no cells: there is nothing to check"
+        )));
+    }
     if info.frame != city.frame {
         return Err(Error::new(format!(
             "{pvs_name}: baked in the frame \"{}\" but {} reads in \"{}\"; read the city with the flags the bake used",
@@ -113,6 +226,9 @@ fn run_in_pool(args: &VerifyArgs, threads: usize) -> Result<i32> {
             args.city.display(),
             city.buildings.len()
         )));
+    }
+    if !args.any_cells {
+        check_cells(args, &city, &reader, &pvs_name)?;
     }
     let visible = (0..reader.cell_count())
         .map(|c| {
@@ -160,11 +276,20 @@ fn run_in_pool(args: &VerifyArgs, threads: usize) -> Result<i32> {
         v.viewpoint_input = to_input(v.viewpoint);
         v.witness_input = to_input(v.witness);
     }
-    let passed = report.violations.is_empty();
+    let judged = report.judged_viewpoints();
+    if report.cells_checked == 0 || judged == 0 {
+        return Err(Error::new(format!(
+            "{pvs_name}: nothing was judged: {} cells checked, {} viewpoints, all of them inside buildings \
+             (the cells overlap the footprints: wrong city or wrong file?)",
+            report.cells_checked, report.viewpoints
+        )));
+    }
+    let passed = report.passed();
     let verdict = Verdict {
         city: args.city.display().to_string(),
         pvs: pvs_name,
         source_matches: info.source_hash == city.source_hash,
+        cells_match_city: !args.any_cells,
         frame: info.frame.describe(),
         buildings: city.buildings.len(),
         threads,
