@@ -94,7 +94,8 @@ fn a_nan_eye_height_with_empty_sets_is_not_a_valid_bake() {
 #[test]
 fn other_impossible_headers_are_refused() {
     let dir = baked();
-    let edits: [(&str, fn(&mut PvsData)); 4] = [
+    type Edit = fn(&mut PvsData);
+    let edits: [(&str, Edit); 4] = [
         ("eps", |d| d.info.eps = 0.0),
         ("pixel size", |d| d.info.pixel = 1e9),
         ("eye height", |d| d.info.eye_height = -1.7),

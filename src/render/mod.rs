@@ -85,7 +85,7 @@ pub fn check_pixel_counts(
         let columns = (rect.max.x / pixel).floor() - (rect.min.x / pixel).floor() + 1.0;
         let rows = (rect.max.y / pixel).floor() - (rect.min.y / pixel).floor() + 1.0;
         let pixels = columns * rows;
-        if !(pixels <= MAX_CULL_MAP_PIXELS) {
+        if pixels.is_nan() || pixels > MAX_CULL_MAP_PIXELS {
             let cell_size = rect.width().max(rect.height()) - 2.0 * radius;
             let largest = ((MAX_CULL_MAP_PIXELS.sqrt() - 2.0) * pixel - cell_size) / 2.0;
             return Err(Error::new(format!(
