@@ -60,9 +60,15 @@ struct SegmentGrid {
 impl SegmentGrid {
     /// Buckets at least `min_size` wide (and few enough) over `bounds`.
     fn new(free: &MultiPolygon, bounds: Rect, min_size: f64) -> SegmentGrid {
-        let size = min_size
+        let mut size = min_size
             .max((bounds.width() * bounds.height() / MAX_BUCKETS).sqrt())
             .max(1e-9);
+        // Checked before allocating, also for long thin or huge bounds.
+        let buckets =
+            |s: f64| (bounds.width() / s).ceil().max(1.0) * (bounds.height() / s).ceil().max(1.0);
+        while buckets(size) > MAX_BUCKETS {
+            size *= 2.0;
+        }
         let nx = ((bounds.width() / size).ceil() as usize).max(1);
         let ny = ((bounds.height() / size).ceil() as usize).max(1);
         let mut grid = SegmentGrid {
@@ -115,6 +121,31 @@ impl SegmentGrid {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A long thin strip of free space gets at most MAX_BUCKETS buckets
+    /// (the area-based size alone would give millions of columns).
+    #[test]
+    fn segment_grid_of_a_long_thin_strip_stays_bounded() {
+        let strip = vec![Polygon {
+            exterior: vec![
+                DVec2::new(0.0, 0.0),
+                DVec2::new(1e7, 0.0),
+                DVec2::new(1e7, 1.0),
+                DVec2::new(0.0, 1.0),
+            ],
+            holes: vec![],
+        }];
+        let bounds = Rect::of_points(strip[0].exterior.iter());
+        let grid = SegmentGrid::new(&strip, bounds, 0.01);
+        assert!(
+            (grid.nx * grid.ny) as f64 <= MAX_BUCKETS,
+            "{} x {}",
+            grid.nx,
+            grid.ny
+        );
+        assert!(grid.any_within(DVec2::new(5e6, 0.5), 0.6));
+        assert!(!grid.any_within(DVec2::new(5e6, 0.5), 0.4));
+    }
     use crate::model::Polygon;
 
     #[test]

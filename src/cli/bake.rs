@@ -1,6 +1,7 @@
 //! `citypvs bake`: read (or generate) a city, prepare it, compute every
 //! cell's PVS, write the `.pvs` file atomically and print a summary.
 
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -101,6 +102,14 @@ pub fn run(args: &BakeArgs) -> Result<i32> {
 }
 
 fn run_in_pool(args: &BakeArgs, threads: usize) -> Result<i32> {
+    let output = output_path(args);
+    let inputs: Vec<&Path> = args
+        .city
+        .iter()
+        .chain(args.scene.region.iter())
+        .map(PathBuf::as_path)
+        .collect();
+    crate::atomic::check_output(&output, &inputs)?;
     let t = Instant::now();
     let (city, city_name) = load_city(args)?;
     let read_seconds = t.elapsed().as_secs_f64();
@@ -127,7 +136,6 @@ fn run_in_pool(args: &BakeArgs, threads: usize) -> Result<i32> {
     let mut timings = scene.timings.clone();
     timings.push(visibility_time);
 
-    let output = output_path(args);
     let t = Instant::now();
     let write_stats = crate::pvs::write_pvs(&output, &data)?;
     timings.push(StageTime {
@@ -153,41 +161,55 @@ fn run_in_pool(args: &BakeArgs, threads: usize) -> Result<i32> {
         threads,
         timings: &timings,
     };
+    let mut out = super::common::summary_stream(&[&output]);
     if args.json {
-        println!(
+        say!(
+            out,
             "{}",
             serde_json::to_string(&summary).expect("summary serialises")
         );
     } else {
-        print_summary(&summary);
+        print_summary(&mut out, &summary);
     }
     Ok(0)
 }
 
-fn print_summary(s: &Summary) {
-    println!("baked {} -> {}", s.city, s.output);
-    println!(
+fn print_summary(out: &mut dyn std::io::Write, s: &Summary) {
+    say!(out, "baked {} -> {}", s.city, s.output);
+    say!(
+        out,
         "buildings      {} ({} repaired, {} skipped)",
-        s.buildings, s.repaired, s.skipped
+        s.buildings,
+        s.repaired,
+        s.skipped
     );
-    println!("cells          {}", s.stats.cells);
-    println!("samples        {}", s.stats.samples);
-    println!(
+    say!(out, "cells          {}", s.stats.cells);
+    say!(out, "samples        {}", s.stats.samples);
+    say!(
+        out,
         "visible/cell   mean {:.1}, max {}",
-        s.stats.mean_visible, s.stats.max_visible
+        s.stats.mean_visible,
+        s.stats.max_visible
     );
-    println!(
+    say!(
+        out,
         "culled         {:.1} % of (cell, building) pairs",
         100.0 * s.stats.culled_fraction
     );
-    println!(
+    say!(
+        out,
         "file           {} bytes ({:.1} bytes per cell)",
-        s.file_bytes, s.bytes_per_cell
+        s.file_bytes,
+        s.bytes_per_cell
     );
     if let Some(m) = s.peak_memory_bytes {
-        println!("peak memory    {:.1} MiB", m as f64 / (1024.0 * 1024.0));
+        say!(
+            out,
+            "peak memory    {:.1} MiB",
+            m as f64 / (1024.0 * 1024.0)
+        );
     }
     for t in s.timings {
-        println!("time {:<10} {:.2} s", t.stage, t.seconds);
+        say!(out, "time {:<10} {:.2} s", t.stage, t.seconds);
     }
 }

@@ -147,11 +147,37 @@ pub fn progress_bar(quiet: bool, unit: &str, total: u64) -> Option<indicatif::Pr
     Some(bar)
 }
 
-/// The worker pool for `--threads` (`None`: one thread per core).
+/// The most worker threads `--threads` accepts: four per core, at most 256
+/// (more only adds start-up time and memory; the results are the same).
+pub fn max_threads() -> usize {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    (4 * cores).min(256)
+}
+
+/// The worker pool for `--threads` (`None`: one thread per core). Zero and
+/// more than [`max_threads`] are refused.
 pub fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
+    let max = max_threads();
+    if let Some(n) = threads
+        && (n == 0 || n > max)
+    {
+        return Err(crate::Error::new(format!(
+            "--threads must be between 1 and {max} (4 per core, at most 256) on this machine, got {n}"
+        )));
+    }
     let threads = threads.unwrap_or(0);
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
         .map_err(|e| crate::Error::new(format!("cannot start {threads} worker threads: {e}")))
+}
+
+/// Where a command prints its summary: standard output, or standard error
+/// when one of its outputs is `-` (the file itself goes to standard output).
+pub fn summary_stream(outputs: &[&std::path::Path]) -> Box<dyn std::io::Write> {
+    if outputs.iter().any(|p| crate::atomic::is_stdout(p)) {
+        Box::new(std::io::stderr())
+    } else {
+        Box::new(std::io::stdout())
+    }
 }

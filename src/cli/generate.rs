@@ -1,5 +1,6 @@
 //! `citypvs generate`: write a procedural city.
 
+use std::io::Write;
 use std::path::PathBuf;
 
 use clap::Args;
@@ -30,6 +31,7 @@ pub fn run(args: &GenerateArgs) -> Result<i32> {
             args.buildings
         )));
     }
+    crate::atomic::check_output(&args.output, &[])?;
     let city = generate_city(&GenerateParams {
         buildings: args.buildings,
         seed: args.seed,
@@ -41,7 +43,9 @@ pub fn run(args: &GenerateArgs) -> Result<i32> {
             .iter()
             .flat_map(|b| b.footprint.exterior.iter()),
     );
-    println!(
+    let mut out = super::common::summary_stream(&[&args.output]);
+    say!(
+        out,
         "wrote {} buildings to {} ({:.0} m x {:.0} m around lon {}, lat {})",
         city.buildings.len(),
         args.output.display(),

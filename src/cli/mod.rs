@@ -2,6 +2,13 @@
 //! Each subcommand module owns its arguments and its printing; the work
 //! itself is done by the library modules.
 
+/// Print a summary line; a closed stream (e.g. `| head`) is not an error.
+macro_rules! say {
+    ($out:expr, $($arg:tt)*) => {{
+        let _ = writeln!($out, $($arg)*);
+    }};
+}
+
 pub mod bake;
 pub mod bench;
 pub mod common;

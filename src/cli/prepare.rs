@@ -1,5 +1,6 @@
 //! `citypvs prepare`: read a city, build blocks, occluders and cells, report.
 
+use std::io::Write;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -30,6 +31,19 @@ pub struct PrepareArgs {
 }
 
 pub fn run(args: &PrepareArgs) -> Result<i32> {
+    let outputs: Vec<&std::path::Path> = args
+        .export_cells
+        .iter()
+        .chain(args.export_occluders.iter())
+        .map(PathBuf::as_path)
+        .collect();
+    let inputs: Vec<&std::path::Path> = std::iter::once(&args.city)
+        .chain(args.scene.region.iter())
+        .map(PathBuf::as_path)
+        .collect();
+    for output in &outputs {
+        crate::atomic::check_output(output, &inputs)?;
+    }
     let t = Instant::now();
     let city = read_city(&args.city, &args.input.options())?;
     let read_seconds = t.elapsed().as_secs_f64();
@@ -52,13 +66,15 @@ pub fn run(args: &PrepareArgs) -> Result<i32> {
         )?;
     }
     let summary = crate::prepare::summary(&scene);
+    let mut out = super::common::summary_stream(&outputs);
     if args.json {
-        println!(
+        say!(
+            out,
             "{}",
             serde_json::to_string(&summary).expect("summary serialises")
         );
     } else {
-        print!("{}", summary.to_text());
+        let _ = write!(out, "{}", summary.to_text());
     }
     Ok(0)
 }

@@ -2,6 +2,7 @@
 //! visible set (from a `.pvs` file or computed here), its cull map and every
 //! cell's PVS size as asked, and write the picture as a PNG.
 
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use clap::{Args, ValueEnum};
@@ -228,14 +229,23 @@ pub fn run(args: &RenderArgs) -> Result<i32> {
     let city = read_city(&args.city, &args.input.options())?;
     let region = args.scene.region(&city.frame)?;
     let settings = match &reader {
-        Some(r) => crate::bake::settings_of(r.info(), region)?,
+        Some(r) => crate::bake::settings_of(r.info(), region).map_err(|e| {
+            e.context(
+                args.pvs
+                    .as_ref()
+                    .expect("a reader comes from --pvs")
+                    .display(),
+            )
+        })?,
         None => super::common::settings(&args.scene, Some(&args.view), &city.frame)?,
     };
     let scene = prepare(city, &settings)?;
     let Drawing { rendered, focus } = draw(args, &scene, reader.as_ref())?;
     let png = rendered.png()?;
     crate::atomic::write_atomically(&args.output, &png)?;
-    print!(
+    let mut out = super::common::summary_stream(&[&args.output]);
+    let _ = write!(
+        out,
         "wrote {} ({} x {} px, {} KB)",
         args.output.display(),
         rendered.pixmap.width(),
@@ -243,13 +253,14 @@ pub fn run(args: &RenderArgs) -> Result<i32> {
         png.len().div_ceil(1024)
     );
     match &focus {
-        Some(f) => println!(
+        Some(f) => say!(
+            out,
             ": cell {}, {} of {} buildings visible",
             f.cell,
             f.visible.len(),
             scene.city.buildings.len()
         ),
-        None => println!(),
+        None => say!(out, ""),
     }
     Ok(0)
 }

@@ -45,6 +45,57 @@ pub struct VerifyArgs {
     /// Print everything as one JSON object.
     #[arg(long)]
     pub json: bool,
+    /// The region file the bake was given with --region (the cells are
+    /// compared with the ones prepared for the city with it).
+    #[arg(long, value_name = "FILE")]
+    pub region: Option<PathBuf>,
+    /// Judge the file's cells as they are, without checking that they are
+    /// the cells citypvs prepares for this city with the file's settings
+    /// (for PVS files made by hand or by another tool).
+    #[arg(long)]
+    pub any_cells: bool,
+}
+
+/// The file's cells must be the ones `bake` makes for this city with the
+/// header's settings: same count, same triangles, in the same order.
+fn check_cells(
+    args: &VerifyArgs,
+    city: &crate::input::City,
+    reader: &PvsReader,
+    pvs_name: &str,
+) -> Result<()> {
+    let info = reader.info();
+    let region = match &args.region {
+        Some(path) => Some(crate::input::read_region(path, &city.frame)?),
+        None => None,
+    };
+    let settings = crate::bake::settings_of(info, region).map_err(|e| e.context(pvs_name))?;
+    let scene = crate::prepare::prepare(city.clone(), &settings)?;
+    let ours = &scene.cells.triangles;
+    let theirs = reader.cell_triangles();
+    if ours.as_slice() == theirs {
+        return Ok(());
+    }
+    let differ = match ours.iter().zip(theirs).position(|(a, b)| a != b) {
+        Some(c) => format!("cell {c} differs"),
+        None => format!("{} cells against {}", theirs.len(), ours.len()),
+    };
+    Err(Error::new(format!(
+        "{pvs_name}: its {} cells are not the {} cells prepared for {} with the file's settings \
+         (--eps {} --max-cell-edge {} --margin {}{}; {differ}): a different city, input flags or --region, \
+         or a file not made by `citypvs bake` (--any-cells judges its cells as they are)",
+        theirs.len(),
+        ours.len(),
+        args.city.display(),
+        info.eps,
+        info.max_cell_edge,
+        info.margin,
+        if args.region.is_some() {
+            " and this --region"
+        } else {
+            ""
+        },
+    )))
 }
 
 /// What `verify --json` prints.
@@ -54,6 +105,9 @@ struct Verdict<'a> {
     pvs: String,
     /// True when the city file's SHA-256 equals the one stored in the PVS.
     source_matches: bool,
+    /// True when the file's cells were found to be the ones prepared for
+    /// the city (false with --any-cells: they were judged as they are).
+    cells_match_city: bool,
     /// The local frame all coordinates below are in.
     frame: String,
     buildings: usize,
@@ -79,6 +133,12 @@ fn run_in_pool(args: &VerifyArgs, threads: usize) -> Result<i32> {
     let pvs_name = args.pvs.display().to_string();
     let reader = PvsReader::open(&args.pvs)?;
     let info = reader.info();
+    crate::bake::settings_of(info, None).map_err(|e| e.context(&pvs_name))?;
+    if reader.cell_count() == 0 {
+        return Err(Error::new(format!(
+            "{pvs_name}: the file has no cells: there is nothing to check"
+        )));
+    }
     if info.frame != city.frame {
         return Err(Error::new(format!(
             "{pvs_name}: baked in the frame \"{}\" but {} reads in \"{}\"; read the city with the flags the bake used",
@@ -113,6 +173,9 @@ fn run_in_pool(args: &VerifyArgs, threads: usize) -> Result<i32> {
             args.city.display(),
             city.buildings.len()
         )));
+    }
+    if !args.any_cells {
+        check_cells(args, &city, &reader, &pvs_name)?;
     }
     let visible = (0..reader.cell_count())
         .map(|c| {
@@ -160,11 +223,20 @@ fn run_in_pool(args: &VerifyArgs, threads: usize) -> Result<i32> {
         v.viewpoint_input = to_input(v.viewpoint);
         v.witness_input = to_input(v.witness);
     }
-    let passed = report.violations.is_empty();
+    let judged = report.judged_viewpoints();
+    if report.cells_checked == 0 || judged == 0 {
+        return Err(Error::new(format!(
+            "{pvs_name}: nothing was judged: {} cells checked, {} viewpoints, all of them inside buildings \
+             (the cells overlap the footprints: wrong city or wrong file?)",
+            report.cells_checked, report.viewpoints
+        )));
+    }
+    let passed = report.passed();
     let verdict = Verdict {
         city: args.city.display().to_string(),
         pvs: pvs_name,
         source_matches: info.source_hash == city.source_hash,
+        cells_match_city: !args.any_cells,
         frame: info.frame.describe(),
         buildings: city.buildings.len(),
         threads,

@@ -146,6 +146,84 @@ fn check_coordinates(parsed: &Parsed, name: &str) -> Result<()> {
     Ok(())
 }
 
+/// The widest city accepted, in metres, east-west and north-south: beyond
+/// it a coordinate is taken as a mistake (a typo, a wrong unit or CRS), and
+/// the grids the bake builds over the city would not fit in memory.
+pub const MAX_CITY_EXTENT: f64 = 100_000.0;
+
+/// Largest projected coordinate accepted, in metres: more than any CRS
+/// uses (the Earth's circumference is 40,000 km), and where f64 still
+/// resolves well below a millimetre.
+pub const MAX_METRIC_COORDINATE: f64 = 1e8;
+
+/// Metric coordinates must be within [`MAX_METRIC_COORDINATE`], and the
+/// buildings, once in local metres, within [`MAX_CITY_EXTENT`] of each other
+/// both ways; the message names the feature and the coordinate farthest from
+/// the others (the median of all vertices).
+fn check_extent(parsed: &Parsed, frame: &Frame, name: &str) -> Result<()> {
+    let fail = |b: &RawBuilding, what: String| feature_error(name, b.label_id(), b.index, &what);
+    if let Coordinates::Metric { .. } = parsed.coordinates {
+        for b in &parsed.buildings {
+            if let Some(p) = b
+                .points()
+                .find(|p| p[0].abs().max(p[1].abs()) > MAX_METRIC_COORDINATE)
+            {
+                return Err(fail(
+                    b,
+                    format!(
+                        "coordinate ({}, {}) is absurd: beyond {MAX_METRIC_COORDINATE:e} m, more than any CRS uses",
+                        p[0], p[1]
+                    ),
+                ));
+            }
+        }
+    }
+    let to_local = frame.local_mapper();
+    let mut local: Vec<(usize, RawPoint, DVec2)> = Vec::new();
+    for (k, b) in parsed.buildings.iter().enumerate() {
+        for p in b.points() {
+            let q = to_local(p[0], p[1]);
+            if !q.is_finite() {
+                return Err(fail(
+                    b,
+                    format!(
+                        "coordinate ({}, {}) cannot be projected (it is too far from the other buildings)",
+                        p[0], p[1]
+                    ),
+                ));
+            }
+            local.push((k, *p, q));
+        }
+    }
+    let bounds = Rect::of_points(local.iter().map(|(_, _, q)| q));
+    if bounds.width() <= MAX_CITY_EXTENT && bounds.height() <= MAX_CITY_EXTENT {
+        return Ok(());
+    }
+    let median = |axis: fn(&DVec2) -> f64| {
+        let mut v: Vec<f64> = local.iter().map(|(_, _, q)| axis(q)).collect();
+        let mid = v.len() / 2;
+        *v.select_nth_unstable_by(mid, f64::total_cmp).1
+    };
+    let centre = DVec2::new(median(|q| q.x), median(|q| q.y));
+    let far = |q: &DVec2| (q.x - centre.x).abs().max((q.y - centre.y).abs());
+    let (k, p, q) = local
+        .iter()
+        .max_by(|a, b| far(&a.2).total_cmp(&far(&b.2)))
+        .expect("a city has vertices");
+    Err(fail(
+        &parsed.buildings[*k],
+        format!(
+            "coordinate ({}, {}) lies {:.0} km from the middle of the other buildings: the city would span {:.0} km x {:.0} km, more than the {:.0} km accepted (a typo, or a wrong unit or CRS?)",
+            p[0],
+            p[1],
+            far(q) / 1000.0,
+            bounds.width() / 1000.0,
+            bounds.height() / 1000.0,
+            MAX_CITY_EXTENT / 1000.0
+        ),
+    ))
+}
+
 /// The frame centred on the buildings' bounding box.
 fn choose_frame(parsed: &Parsed) -> Frame {
     let points: Vec<DVec2> = parsed
@@ -201,6 +279,7 @@ pub fn assemble(parsed: Parsed, name: &str, bytes: &[u8], options: &InputOptions
     check_unique_ids(&parsed.buildings, name)?;
     check_coordinates(&parsed, name)?;
     let frame = choose_frame(&parsed);
+    check_extent(&parsed, &frame, name)?;
 
     let repaired: Vec<_> = {
         let to_local = frame.local_mapper();

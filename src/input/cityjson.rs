@@ -1,4 +1,5 @@
-//! CityJSON 1.1 / 2.0 (and 1.0) files: `Building` and `BuildingPart` city
+//! CityJSON 1.0, 1.1 and 2.0 files (versions "1.0", "1.1", "2.0", each
+//! with an optional ".N" patch number): `Building` and `BuildingPart` city
 //! objects. The footprint is the GroundSurface semantic surface(s) of the
 //! object's highest-LoD geometry, else its surfaces lying flat at the lowest
 //! height; the height is the highest vertex minus the ground, the lowest
@@ -26,8 +27,41 @@ const LIFT_TOLERANCE: f64 = 0.1;
 /// A surface: rings of 3D points, the first the outer ring.
 type Surface = Vec<Vec<[f64; 3]>>;
 
-/// The file's vertices with the transform applied.
-fn vertices(root: &Map<String, Value>, name: &str) -> Result<Vec<[f64; 3]>> {
+/// The versions read: CityJSON 1.0, 1.1 and 2.0 (1.0 has the same
+/// building model; only its `transform` is optional).
+const VERSIONS: [&str; 3] = ["1.0", "1.1", "2.0"];
+
+/// The file's version, one of [`VERSIONS`], from `"1.1"` or `"1.1.2"`.
+fn version(root: &Map<String, Value>, name: &str) -> Result<&'static str> {
+    let unsupported = |shown: String| {
+        Error::new(format!(
+            "{name}: CityJSON version {shown} is not supported (1.0, 1.1 and 2.0 are, written as a string such as \"2.0\")"
+        ))
+    };
+    let text = match root.get("version") {
+        None => return Err(unsupported("(none: the file has no \"version\")".into())),
+        Some(Value::String(s)) => s.as_str(),
+        Some(Value::Number(n)) => {
+            return Err(Error::new(format!(
+                "{name}: CityJSON version is the number {n}; it must be a string (\"version\": \"{n}\")"
+            )));
+        }
+        Some(other) => return Err(unsupported(other.to_string())),
+    };
+    let (major_minor, patch) = match text.match_indices('.').nth(1) {
+        Some((i, _)) => (&text[..i], Some(&text[i + 1..])),
+        None => (text, None),
+    };
+    let patch_ok = patch.is_none_or(|p| !p.is_empty() && p.bytes().all(|c| c.is_ascii_digit()));
+    match VERSIONS.iter().find(|v| **v == major_minor) {
+        Some(v) if patch_ok => Ok(v),
+        _ => Err(unsupported(format!("\"{text}\""))),
+    }
+}
+
+/// The file's vertices with the transform applied (CityJSON 1.1 and 2.0
+/// require a transform; 1.0 files may have plain coordinates).
+fn vertices(root: &Map<String, Value>, name: &str, version: &str) -> Result<Vec<[f64; 3]>> {
     let (scale, translate) = match root.get("transform") {
         Some(t) => {
             let triple = |key: &str| -> Result<[f64; 3]> {
@@ -50,7 +84,12 @@ fn vertices(root: &Map<String, Value>, name: &str) -> Result<Vec<[f64; 3]>> {
             };
             (triple("scale")?, triple("translate")?)
         }
-        None => ([1.0; 3], [0.0; 3]),
+        None if version == "1.0" => ([1.0; 3], [0.0; 3]),
+        None => {
+            return Err(Error::new(format!(
+                "{name}: CityJSON {version} file has no \"transform\" (it is required: vertices are integers scaled by transform.scale)"
+            )));
+        }
     };
     let list = root
         .get("vertices")
@@ -219,22 +258,61 @@ fn footprint_and_extent(
     })
 }
 
-/// The id of the top-most ancestor of an object (following `parents`).
-fn family_root<'a>(objects: &'a Map<String, Value>, id: &'a str) -> &'a str {
-    let mut current = id;
-    for _ in 0..objects.len() {
-        let parent = objects
-            .get(current)
-            .and_then(|o| o.get("parents"))
-            .and_then(Value::as_array)
-            .and_then(|p| p.first())
-            .and_then(Value::as_str);
-        match parent {
-            Some(p) if objects.contains_key(p) => current = p,
-            _ => break,
+/// The first of an object's `parents` that is in the file, if any.
+fn parent_of<'a>(objects: &'a Map<String, Value>, id: &str) -> Option<&'a str> {
+    objects
+        .get(id)
+        .and_then(|o| o.get("parents"))
+        .and_then(Value::as_array)
+        .and_then(|p| p.first())
+        .and_then(Value::as_str)
+        .filter(|p| objects.contains_key(*p))
+}
+
+/// The top-most ancestors of objects (following the first of their
+/// `parents`), remembered so that every chain is walked once.
+#[derive(Default)]
+struct FamilyRoots<'a> {
+    known: BTreeMap<&'a str, &'a str>,
+}
+
+impl<'a> FamilyRoots<'a> {
+    /// The root of `id`'s family, or the ids of a cycle of parents.
+    fn of(
+        &mut self,
+        objects: &'a Map<String, Value>,
+        id: &'a str,
+    ) -> std::result::Result<&'a str, String> {
+        let mut chain: Vec<&'a str> = Vec::new();
+        let mut on_chain: std::collections::BTreeSet<&'a str> = Default::default();
+        let mut current = id;
+        let root = loop {
+            if let Some(root) = self.known.get(current) {
+                break *root;
+            }
+            if !on_chain.insert(current) {
+                let start = chain.iter().position(|c| *c == current).unwrap_or(0);
+                let cycle: Vec<String> = chain[start..]
+                    .iter()
+                    .chain(std::iter::once(&current))
+                    .map(|c| format!("\"{c}\""))
+                    .collect();
+                return Err(format!(
+                    "its parents form a cycle: {} (an object cannot be its own ancestor)",
+                    cycle.join(" -> ")
+                ));
+            }
+            chain.push(current);
+            match parent_of(objects, current) {
+                Some(p) => current = p,
+                None => break current,
+            }
+        };
+        for c in chain {
+            self.known.insert(c, root);
         }
+        Ok(root)
     }
-    current
 }
 
 /// Parse a CityJSON document into buildings.
@@ -242,16 +320,8 @@ pub fn parse(root: &Value, name: &str, _options: &InputOptions) -> Result<Parsed
     let root = root
         .as_object()
         .ok_or_else(|| Error::new(format!("{name}: CityJSON must be a JSON object")))?;
-    let version = root
-        .get("version")
-        .and_then(Value::as_str)
-        .unwrap_or("(none)");
-    if !["1.0", "1.1", "2.0"].iter().any(|v| version.starts_with(v)) {
-        return Err(Error::new(format!(
-            "{name}: CityJSON version \"{version}\" is not supported (1.1 and 2.0 are)"
-        )));
-    }
-    let verts = vertices(root, name)?;
+    let version = version(root, name)?;
+    let verts = vertices(root, name, version)?;
     let objects = root
         .get("CityObjects")
         .and_then(Value::as_object)
@@ -269,6 +339,7 @@ pub fn parse(root: &Value, name: &str, _options: &InputOptions) -> Result<Parsed
         winding_matters: false,
     };
     let mut extents = Vec::new();
+    let mut roots = FamilyRoots::default();
     for (index, (id, object)) in objects.iter().enumerate() {
         let kind = object.get("type").and_then(Value::as_str).unwrap_or("");
         if kind != "Building" && kind != "BuildingPart" {
@@ -296,7 +367,10 @@ pub fn parse(root: &Value, name: &str, _options: &InputOptions) -> Result<Parsed
         };
         let extent = footprint_and_extent(geometry, &verts)
             .map_err(|e| feature_error(name, Some(id), index, &e))?;
-        extents.push((index, id, family_root(objects, id), extent));
+        let root = roots
+            .of(objects, id)
+            .map_err(|e| feature_error(name, Some(id), index, &e))?;
+        extents.push((index, id, root, extent));
     }
     // A building and its parts stand on one ground: the lowest vertex of all of them.
     let mut ground: BTreeMap<&str, f64> = BTreeMap::new();

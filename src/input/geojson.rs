@@ -304,6 +304,12 @@ pub fn parse(doc: &Document, name: &str, options: &InputOptions) -> Result<Parse
         };
         let height = height(props, options).map_err(fail)?;
         let occludes = occludes(props).map_err(fail)?;
+        if let Some(note) = length_property(props, "min_height")
+            .map_err(fail)?
+            .and_then(|m| super::height::min_height_note(m, height))
+        {
+            notes.push(note);
+        }
         parsed.buildings.push(RawBuilding {
             index,
             id: given_id.clone().unwrap_or_else(|| index.to_string()),

@@ -59,6 +59,18 @@ pub fn check_height(height: f64) -> std::result::Result<f64, String> {
     }
 }
 
+/// The warning for a lifted part whose bottom (`min_height`) is not below
+/// its top (`height`): it is kept as an object that does not occlude (the
+/// conservative reading: nothing is hidden behind it), from the ground to
+/// its height like every lifted part.
+pub fn min_height_note(min_height: f64, height: f64) -> Option<String> {
+    (min_height >= height).then(|| {
+        format!(
+            "min_height {min_height} m is not below height {height} m: kept as a part that does not occlude"
+        )
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

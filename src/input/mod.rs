@@ -150,6 +150,23 @@ pub fn read_region(path: &Path, frame: &Frame) -> Result<crate::model::Polygon> 
         .iter()
         .map(|ring| ring.iter().map(|p| frame.to_local(p[0], p[1])).collect())
         .collect();
+    // The city lies within half its largest extent of the origin; a region
+    // reaching much farther out is a mistake (and would make huge grids).
+    let reach = assemble::MAX_CITY_EXTENT;
+    if let Some((p, q)) = rings
+        .iter()
+        .flatten()
+        .zip(local.iter().flatten())
+        .find(|(_, q)| !(q.x.abs() <= reach && q.y.abs() <= reach))
+    {
+        return Err(crate::Error::new(format!(
+            "{name}: region: coordinate ({}, {}) is {:.0} km from the city's centre; a region may reach at most {:.0} km from it",
+            p[0],
+            p[1],
+            q.x.abs().max(q.y.abs()) / 1000.0,
+            reach / 1000.0
+        )));
+    }
     let mut repaired = repair::repair_footprint(&vec![local], false);
     if repaired.footprint.len() != 1 {
         return Err(crate::Error::new(format!(

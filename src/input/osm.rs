@@ -300,6 +300,14 @@ pub fn parse(bytes: &[u8], name: &str, options: &InputOptions) -> Result<Parsed>
             }
         };
         let (height, occludes) = height(feature.tags(), options, &mut notes);
+        if let Some(note) = feature
+            .tags()
+            .get("min_height")
+            .and_then(|t| parse_length(t))
+            .and_then(|m| super::height::min_height_note(m, height))
+        {
+            notes.push(note);
+        }
         parsed.buildings.push(RawBuilding {
             index,
             id: feature.id(),

@@ -82,43 +82,74 @@ impl EdgeGrid {
         while (bounds.width() / cell).ceil() * (bounds.height() / cell).ceil() > MAX_GRID_CELLS {
             cell *= 1.5;
         }
-        let nx = ((bounds.width() / cell).ceil() as usize).max(1);
-        let ny = ((bounds.height() / cell).ceil() as usize).max(1);
-        let mut grid = EdgeGrid {
-            edges,
-            bounds,
-            cell,
-            nx,
-            ny,
-            starts: vec![0; nx * ny + 1],
-            items: Vec::new(),
+        // Each edge is listed in every grid cell its slightly grown bounding
+        // box touches; long diagonal edges touch many. Count before
+        // allocating, and coarsen while the lists would be too long.
+        let max_items = 16 * edges.len() as u64 + 4_000_000;
+        let grid = loop {
+            let nx = ((bounds.width() / cell).ceil() as usize).max(1);
+            let ny = ((bounds.height() / cell).ceil() as usize).max(1);
+            let grid = EdgeGrid {
+                edges: Vec::new(),
+                bounds,
+                cell,
+                nx,
+                ny,
+                starts: Vec::new(),
+                items: Vec::new(),
+            };
+            let items: u64 = edges
+                .iter()
+                .map(|e| {
+                    let ((x0, y0), (x1, y1)) = grid.edge_cells(e);
+                    ((x1 - x0 + 1) * (y1 - y0 + 1)) as u64
+                })
+                .sum();
+            if items <= max_items || nx * ny == 1 {
+                break grid;
+            }
+            cell *= 2.0;
         };
-        // Counting sort of (cell, edge) pairs; each edge goes to every cell its
-        // slightly grown bounding box touches.
-        let pad = 1e-9 * cell;
-        let mut pairs: Vec<(u32, u32)> = Vec::new();
-        for (e, edge) in grid.edges.iter().enumerate() {
-            let (x0, y0) = grid.cell_of(edge.a.min(edge.b) - DVec2::splat(pad));
-            let (x1, y1) = grid.cell_of(edge.a.max(edge.b) + DVec2::splat(pad));
+        let (nx, ny) = (grid.nx, grid.ny);
+        let mut grid = EdgeGrid { edges, ..grid };
+        // Counting sort of (cell, edge) pairs, in two passes.
+        let mut starts = vec![0u32; nx * ny + 1];
+        for edge in &grid.edges {
+            let ((x0, y0), (x1, y1)) = grid.edge_cells(edge);
             for y in y0..=y1 {
                 for x in x0..=x1 {
-                    pairs.push(((y * nx + x) as u32, e as u32));
+                    starts[y * nx + x + 1] += 1;
                 }
             }
         }
-        for &(k, _) in &pairs {
-            grid.starts[k as usize + 1] += 1;
-        }
         for k in 0..nx * ny {
-            grid.starts[k + 1] += grid.starts[k];
+            starts[k + 1] += starts[k];
         }
-        let mut fill = grid.starts.clone();
-        grid.items = vec![0; pairs.len()];
-        for &(k, e) in &pairs {
-            grid.items[fill[k as usize] as usize] = e;
-            fill[k as usize] += 1;
+        let mut fill = starts.clone();
+        let mut items = vec![0u32; starts[nx * ny] as usize];
+        for (e, edge) in grid.edges.iter().enumerate() {
+            let ((x0, y0), (x1, y1)) = grid.edge_cells(edge);
+            for y in y0..=y1 {
+                for x in x0..=x1 {
+                    let k = y * nx + x;
+                    items[fill[k] as usize] = e as u32;
+                    fill[k] += 1;
+                }
+            }
         }
+        grid.starts = starts;
+        grid.items = items;
         grid
+    }
+
+    /// The first and last grid cell (column, row) of an edge's slightly
+    /// grown bounding box.
+    fn edge_cells(&self, edge: &Edge) -> ((usize, usize), (usize, usize)) {
+        let pad = DVec2::splat(1e-9 * self.cell);
+        (
+            self.cell_of(edge.a.min(edge.b) - pad),
+            self.cell_of(edge.a.max(edge.b) + pad),
+        )
     }
 
     fn cell_of(&self, p: DVec2) -> (usize, usize) {
@@ -404,5 +435,46 @@ mod tests {
                 .all(|q| q.x == 3.0 || q.x == 5.0 || q.y == 0.0 || q.y == 5.0),
             "{points:?}"
         );
+    }
+
+    /// Long diagonal edges each touch a whole row and column of grid cells;
+    /// the edge lists are counted and the grid coarsened before they are
+    /// allocated, and every edge is still listed wherever it passes.
+    #[test]
+    fn long_diagonal_edges_keep_the_edge_lists_bounded() {
+        let sliver = |k: usize| {
+            let o = k as f64 * 0.01;
+            Building {
+                id: format!("s{k}"),
+                footprint: vec![Polygon {
+                    exterior: vec![
+                        DVec2::new(o, 0.0),
+                        DVec2::new(o + 0.005, 0.0),
+                        DVec2::new(o + 10_000.005, 10_000.0),
+                        DVec2::new(o + 10_000.0, 10_000.0),
+                    ],
+                    holes: vec![],
+                }],
+                height: 10.0,
+                occludes: true,
+            }
+        };
+        let buildings: Vec<Building> = (0..2000).map(sliver).collect();
+        let grid = EdgeGrid::new(&buildings);
+        let limit = 16 * grid.edges.len() + 4_000_000;
+        assert!(grid.items.len() <= limit, "{} items", grid.items.len());
+        // The ray along the diagonal still meets the first sliver's edges.
+        let mut scratch = RayScratch::default();
+        let mut hits = Vec::new();
+        grid.walk(
+            DVec2::new(-1.0, 5_000.0),
+            DVec2::new(1.0, 0.0),
+            &mut scratch,
+            |batch| {
+                hits.extend(batch.iter().map(|c| c.building));
+                true
+            },
+        );
+        assert!(hits.contains(&0), "{hits:?}");
     }
 }

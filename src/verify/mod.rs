@@ -117,6 +117,24 @@ pub struct VerifyReport {
     pub cells: Vec<CellVerdict>,
 }
 
+impl VerifyReport {
+    /// Viewpoints judged (those not inside a building).
+    pub fn judged_viewpoints(&self) -> usize {
+        self.viewpoints - self.blocked_viewpoints.len()
+    }
+
+    /// A pass: no violation, and something was judged (at least one cell,
+    /// one viewpoint outside the buildings, at a real eye height). Checking
+    /// nothing is never a pass.
+    pub fn passed(&self) -> bool {
+        self.violations.is_empty()
+            && self.cells_checked > 0
+            && self.judged_viewpoints() > 0
+            && self.eye_height > 0.0
+            && self.eye_height.is_finite()
+    }
+}
+
 /// Judge the visible sets `visible[c]` (ascending building indices) of the
 /// cells `cells[c]` (prisms from z = 0 to `eye_height`).
 pub fn verify(

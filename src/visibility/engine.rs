@@ -37,12 +37,12 @@ use crate::settings::Settings;
 /// Cells solved together between two hand-overs to the sink.
 pub const CHUNK_CELLS: usize = 2048;
 
-/// The most pixel rows the objects' conservative footprints may take on
-/// the global cull-map grid (12 bytes each).
-pub const MAX_OBJECT_ROWS: f64 = 40_000_000.0;
+/// The most pixels the objects' conservative footprints may cover on the
+/// global cull-map grid (their spans are found pixel by pixel).
+pub const MAX_FOOTPRINT_PIXELS: f64 = 1e8;
 
-/// The most pixels one cull-map picture may hold.
-pub const MAX_PICTURE_PIXELS: f64 = 64.0 * 1024.0 * 1024.0;
+/// The most pixels one cull-map picture may hold (4096 x 4096).
+pub const MAX_PICTURE_PIXELS: f64 = 16_777_216.0;
 
 /// The largest extent, in metres, of a scene the engine indexes.
 pub const MAX_EXTENT: f64 = 1_000_000.0;
@@ -313,13 +313,20 @@ impl<'a> VisibilityEngine<'a> {
         let t = self.cells[cell];
         let rect = Rect::of_points(t.iter()).grown(radius);
         let pixel = self.settings.pixel;
-        let (w, h) = (rect.width() / pixel + 2.0, rect.height() / pixel + 2.0);
-        if w * h > MAX_PICTURE_PIXELS {
+        let columns = (rect.max.x / pixel).floor() - (rect.min.x / pixel).floor() + 1.0;
+        let rows = (rect.max.y / pixel).floor() - (rect.min.y / pixel).floor() + 1.0;
+        let pixels = columns * rows;
+        if pixels.is_nan() || pixels > MAX_PICTURE_PIXELS {
+            let cell_size = rect.width().max(rect.height()) - 2.0 * radius;
+            let largest = ((MAX_PICTURE_PIXELS.sqrt() - 2.0) * pixel - cell_size) / 2.0;
             return Err(Error::limit(
                 "radius",
                 format!(
-                    "a cull map of {w:.0} x {h:.0} pixels of {pixel} m is more than the limit of {MAX_PICTURE_PIXELS:.0} \
-                     pixels; use a smaller radius"
+                    "--radius {radius} m makes cell {cell}'s cull map {columns:.0} x {rows:.0} pixels of {pixel:.3} m \
+                     ({pixels:.3e} pixels, {:.3e} bytes), more than the {MAX_PICTURE_PIXELS:.0} accepted: give --radius {:.0} \
+                     or less",
+                    pixels * 8.0,
+                    largest.floor().max(0.0)
                 ),
             ));
         }
@@ -346,8 +353,8 @@ impl<'a> VisibilityEngine<'a> {
 }
 
 /// Refuse, before building anything, a scene whose indexes would not fit:
-/// an extent beyond [`MAX_EXTENT`] or object footprints of more than
-/// [`MAX_OBJECT_ROWS`] pixel rows at the settings' pixel size.
+/// an extent beyond [`MAX_EXTENT`] or object footprints covering more than
+/// [`MAX_FOOTPRINT_PIXELS`] pixels at the settings' pixel size.
 fn check_index_size(scene: &Scene, settings: &Settings) -> Result<()> {
     let mut bounds = Rect::EMPTY;
     for t in &scene.cells.triangles {
@@ -355,12 +362,12 @@ fn check_index_size(scene: &Scene, settings: &Settings) -> Result<()> {
             bounds.include(*p);
         }
     }
-    let mut rows = 0.0;
+    let mut pixels = 0.0;
     for b in &scene.city.buildings {
         let r = crate::model::multipolygon_bounds(&b.footprint);
         bounds.include(r.min);
         bounds.include(r.max);
-        rows += r.height() / settings.pixel + 3.0;
+        pixels += (r.width() / settings.pixel + 3.0) * (r.height() / settings.pixel + 3.0);
     }
     if !bounds.is_empty() && (bounds.width() > MAX_EXTENT || bounds.height() > MAX_EXTENT) {
         return Err(Error::limit(
@@ -373,13 +380,14 @@ fn check_index_size(scene: &Scene, settings: &Settings) -> Result<()> {
             ),
         ));
     }
-    if rows > MAX_OBJECT_ROWS {
+    if pixels > MAX_FOOTPRINT_PIXELS {
         return Err(Error::limit(
             "pixel",
             format!(
-                "the buildings' footprints cover {rows:.3e} pixel rows of {} m, more than the limit of \
-                 {MAX_OBJECT_ROWS:.0}; use a larger pixel or eps",
-                settings.pixel
+                "a cull-map pixel of {} m puts the {} buildings' footprints on {pixels:.3e} pixels, more than the \
+                 {MAX_FOOTPRINT_PIXELS:.0e} accepted; use a larger --pixel or --eps",
+                settings.pixel,
+                scene.city.buildings.len()
             ),
         ));
     }

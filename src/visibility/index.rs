@@ -88,6 +88,21 @@ pub struct SceneIndex {
 
 const BUCKET_SIZE: f64 = 16.0;
 const PYRAMID_LEAF: f64 = 32.0;
+/// Most squares the bucket grid or a pyramid level may have: over a very
+/// wide, sparse city the squares grow instead (an index only; any square
+/// size gives the same visible sets).
+const MAX_GRID_SQUARES: f64 = 4.0e6;
+
+/// `step`, grown until a grid of such squares over `bounds` has at most
+/// [`MAX_GRID_SQUARES`] squares.
+fn grid_step(bounds: &Rect, step: f64) -> f64 {
+    let squares = |s: f64| (bounds.width() / s + 1.0) * (bounds.height() / s + 1.0);
+    let mut step = step;
+    while squares(step) > MAX_GRID_SQUARES {
+        step *= 2.0;
+    }
+    step
+}
 
 impl SceneIndex {
     pub fn build(buildings: &[Building], occluders: &[Occluder], pixel: f64) -> SceneIndex {
@@ -105,13 +120,14 @@ impl SceneIndex {
             };
         }
         let bucket_origin = bounds.min;
-        let nx = ((bounds.width() / BUCKET_SIZE).floor() as usize + 1).max(1);
-        let ny = ((bounds.height() / BUCKET_SIZE).floor() as usize + 1).max(1);
+        let bucket_size = grid_step(&bounds, BUCKET_SIZE);
+        let nx = ((bounds.width() / bucket_size).floor() as usize + 1).max(1);
+        let ny = ((bounds.height() / bucket_size).floor() as usize + 1).max(1);
         let mut buckets = vec![Vec::new(); nx * ny];
         for (idx, e) in edges.iter().enumerate() {
             let r = Rect::of_points([&e.a, &e.b]);
-            let (x0, y0) = bucket_coords(bucket_origin, r.min, nx, ny);
-            let (x1, y1) = bucket_coords(bucket_origin, r.max, nx, ny);
+            let (x0, y0) = bucket_coords(bucket_origin, bucket_size, r.min, nx, ny);
+            let (x1, y1) = bucket_coords(bucket_origin, bucket_size, r.max, nx, ny);
             for y in y0..=y1 {
                 for x in x0..=x1 {
                     buckets[y * nx + x].push(idx as u32);
@@ -134,7 +150,7 @@ impl SceneIndex {
         SceneIndex {
             grid,
             edges,
-            bucket_size: BUCKET_SIZE,
+            bucket_size,
             bucket_origin,
             bucket_dims: (nx, ny),
             buckets,
@@ -220,8 +236,8 @@ impl SceneIndex {
         if hi.x < 0.0 || hi.y < 0.0 || lo.x >= nx as f64 || lo.y >= ny as f64 {
             return;
         }
-        let (x0, y0) = bucket_coords(self.bucket_origin, rect.min, nx, ny);
-        let (x1, y1) = bucket_coords(self.bucket_origin, rect.max, nx, ny);
+        let (x0, y0) = bucket_coords(self.bucket_origin, self.bucket_size, rect.min, nx, ny);
+        let (x1, y1) = bucket_coords(self.bucket_origin, self.bucket_size, rect.max, nx, ny);
         for y in y0..=y1 {
             for x in x0..=x1 {
                 for &e in &self.buckets[y * nx + x] {
@@ -232,8 +248,8 @@ impl SceneIndex {
     }
 }
 
-fn bucket_coords(origin: DVec2, p: DVec2, nx: usize, ny: usize) -> (usize, usize) {
-    let q = (p - origin) / BUCKET_SIZE;
+fn bucket_coords(origin: DVec2, size: f64, p: DVec2, nx: usize, ny: usize) -> (usize, usize) {
+    let q = (p - origin) / size;
     let x = (q.x.floor().max(0.0) as usize).min(nx - 1);
     let y = (q.y.floor().max(0.0) as usize).min(ny - 1);
     (x, y)
@@ -337,12 +353,13 @@ fn build_pyramid(objects: &[ObjectRaster]) -> (Vec<PyramidNode>, Option<u32>) {
     for o in objects {
         bounds = bounds.union(&o.rect);
     }
-    let mut nx = ((bounds.width() / PYRAMID_LEAF).floor() as usize + 1).max(1);
-    let mut ny = ((bounds.height() / PYRAMID_LEAF).floor() as usize + 1).max(1);
+    let leaf = grid_step(&bounds, PYRAMID_LEAF);
+    let mut nx = ((bounds.width() / leaf).floor() as usize + 1).max(1);
+    let mut ny = ((bounds.height() / leaf).floor() as usize + 1).max(1);
     let mut level: Vec<Option<PyramidNode>> = vec![None; nx * ny];
     for (idx, o) in objects.iter().enumerate() {
         let c = (o.rect.min + o.rect.max) * 0.5;
-        let q = (c - bounds.min) / PYRAMID_LEAF;
+        let q = (c - bounds.min) / leaf;
         let x = (q.x.floor().max(0.0) as usize).min(nx - 1);
         let y = (q.y.floor().max(0.0) as usize).min(ny - 1);
         let node = level[y * nx + x].get_or_insert_with(|| PyramidNode {

@@ -20,6 +20,6 @@ pub mod samples;
 pub mod solver;
 
 pub use engine::{
-    CHUNK_CELLS, CullMapImage, MAX_EXTENT, MAX_OBJECT_ROWS, MAX_PICTURE_PIXELS, SolveStats,
+    CHUNK_CELLS, CullMapImage, MAX_EXTENT, MAX_FOOTPRINT_PIXELS, MAX_PICTURE_PIXELS, SolveStats,
     VisibilityEngine,
 };
