@@ -208,6 +208,12 @@ pub fn draw(args: &RenderArgs, scene: &Scene, reader: Option<&PvsReader>) -> Res
 
 pub fn run(args: &RenderArgs) -> Result<i32> {
     check_args(args)?;
+    let inputs: Vec<&Path> = std::iter::once(&args.city)
+        .chain(args.pvs.iter())
+        .chain(args.scene.region.iter())
+        .map(PathBuf::as_path)
+        .collect();
+    crate::atomic::check_output(&args.output, &inputs)?;
     let reader = match &args.pvs {
         Some(path) => {
             let given: Vec<&str> = args
