@@ -83,18 +83,31 @@ impl Default for Settings {
     }
 }
 
+/// A number as a person reads it: plain when moderate, in scientific
+/// notation when huge or tiny.
+pub fn readable(v: f64) -> String {
+    if v != 0.0 && v.is_finite() && !(1e-3..1e7).contains(&v.abs()) {
+        format!("{v:.3e}")
+    } else {
+        format!("{v}")
+    }
+}
+
 /// A positive, finite length no larger than `max`.
 fn positive(name: &'static str, value: f64, max: f64) -> Result<f64> {
     if !(value > 0.0 && value.is_finite()) {
         return Err(Error::setting(
             name,
-            format!("must be a positive number of metres, got {value}"),
+            format!(
+                "must be a positive number of metres, got {}",
+                readable(value)
+            ),
         ));
     }
     if value > max {
         return Err(Error::setting(
             name,
-            format!("{value} m is absurd (at most {max} m)"),
+            format!("{} m is absurd (at most {max} m)", readable(value)),
         ));
     }
     Ok(value)
@@ -105,13 +118,16 @@ fn non_negative(name: &'static str, value: f64, max: f64) -> Result<f64> {
     if !(value >= 0.0 && value.is_finite()) {
         return Err(Error::setting(
             name,
-            format!("must be zero or a positive number of metres, got {value}"),
+            format!(
+                "must be zero or a positive number of metres, got {}",
+                readable(value)
+            ),
         ));
     }
     if value > max {
         return Err(Error::setting(
             name,
-            format!("{value} m is absurd (at most {max} m)"),
+            format!("{} m is absurd (at most {max} m)", readable(value)),
         ));
     }
     Ok(value)
@@ -163,11 +179,12 @@ impl Settings {
             return Err(Error::limit(
                 "pixel",
                 format!(
-                    "a near-field cull map of {:.0} x {:.0} pixels ({:.3e} pixels of {pixel} m over {} m) is more than \
+                    "a near-field cull map of {} x {} pixels ({:.3e} pixels of {} m over {} m) is more than \
                      the limit of {:.0} pixels; use a larger --pixel or --eps, or a smaller --near-field",
-                    side,
-                    side,
+                    readable(side.floor()),
+                    readable(side.floor()),
                     side * side,
+                    readable(pixel),
                     2.0 * near_field,
                     MAX_CULL_MAP_PIXELS
                 ),

@@ -154,7 +154,7 @@ pub fn run(args: &BenchArgs) -> Result<i32> {
         );
     }
     let dir = tempfile::tempdir()
-        .map_err(|e| crate::Error::new(format!("cannot make a temporary folder: {e}")))?;
+        .map_err(|e| crate::Error::io(format!("cannot make a temporary folder: {e}")))?;
     for &n in &args.buildings {
         let text = crate::generate::generate_geojson(&crate::generate::GenerateParams {
             buildings: n,

@@ -161,7 +161,7 @@ pub fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
     if let Some(n) = threads
         && (n == 0 || n > max)
     {
-        return Err(crate::Error::new(format!(
+        return Err(crate::Error::usage(format!(
             "--threads must be between 1 and {max} (4 per core, at most 256) on this machine, got {n}"
         )));
     }
@@ -169,7 +169,7 @@ pub fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
-        .map_err(|e| crate::Error::new(format!("cannot start {threads} worker threads: {e}")))
+        .map_err(|e| crate::Error::usage(format!("cannot start {threads} worker threads: {e}")))
 }
 
 /// Where a command prints its summary: standard output, or standard error

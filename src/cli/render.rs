@@ -68,7 +68,7 @@ pub struct RenderArgs {
 /// Parse "X,Y" into two finite numbers.
 fn parse_point(text: &str) -> Result<(f64, f64)> {
     let bad = || {
-        Error::new(format!(
+        Error::usage(format!(
             "--at must be two numbers X,Y (e.g. --at=26.94,60.47), got \"{text}\""
         ))
     };
@@ -136,7 +136,7 @@ fn chosen_cell(
     if let Some(cell) = args.cell {
         let cells = scene.cells.triangles.len();
         if cell >= cells {
-            return Err(Error::new(format!(
+            return Err(Error::usage(format!(
                 "--cell {cell} does not exist: {} has {cells} cells, numbered from 0",
                 args.city.display()
             )));
@@ -153,7 +153,7 @@ fn chosen_cell(
         None => cell_containing(scene, local),
     };
     found.map(Some).ok_or_else(|| {
-        Error::new(format!(
+        Error::usage(format!(
             "--at {x},{y} (local {:.1} m east, {:.1} m north) is in no view cell: it is inside a \
              building or outside the region",
             local.x, local.y
@@ -166,13 +166,13 @@ fn check_args(args: &RenderArgs) -> Result<()> {
     if let Some(r) = args.radius
         && !(r > 0.0 && r.is_finite())
     {
-        return Err(Error::new(format!(
+        return Err(Error::usage(format!(
             "--radius must be a positive number of metres, got {r}"
         )));
     }
     let has_cell = args.cell.is_some() || args.at.is_some();
     if !has_cell && (args.layer.contains(&Layer::Cullmap) || args.radius.is_some()) {
-        return Err(Error::new(
+        return Err(Error::usage(
             "--layer cullmap and --radius need a chosen cell: add --cell N or --at X,Y".to_string(),
         ));
     }

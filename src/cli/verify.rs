@@ -80,7 +80,7 @@ fn check_cells(
         Some(c) => format!("cell {c} differs"),
         None => format!("{} cells against {}", theirs.len(), ours.len()),
     };
-    Err(Error::new(format!(
+    Err(Error::mismatch(format!(
         "{pvs_name}: its {} cells are not the {} cells prepared for {} with the file's settings \
          (--eps {} --max-cell-edge {} --margin {}{}; {differ}): a different city, input flags or --region, \
          or a file not made by `citypvs bake` (--any-cells judges its cells as they are)",
@@ -119,10 +119,10 @@ struct Verdict<'a> {
 
 pub fn run(args: &VerifyArgs) -> Result<i32> {
     if args.samples == 0 {
-        return Err(Error::new("--samples must be at least 1"));
+        return Err(Error::usage("--samples must be at least 1"));
     }
     if args.cells == 0 && !args.all {
-        return Err(Error::new("--cells must be at least 1"));
+        return Err(Error::usage("--cells must be at least 1"));
     }
     let pool = super::common::thread_pool(args.threads)?;
     pool.install(|| run_in_pool(args, pool.current_num_threads()))
@@ -135,12 +135,12 @@ fn run_in_pool(args: &VerifyArgs, threads: usize) -> Result<i32> {
     let info = reader.info();
     crate::bake::settings_of(info, None).map_err(|e| e.context(&pvs_name))?;
     if reader.cell_count() == 0 {
-        return Err(Error::new(format!(
+        return Err(Error::mismatch(format!(
             "{pvs_name}: the file has no cells: there is nothing to check"
         )));
     }
     if info.frame != city.frame {
-        return Err(Error::new(format!(
+        return Err(Error::mismatch(format!(
             "{pvs_name}: baked in the frame \"{}\" but {} reads in \"{}\"; read the city with the flags the bake used",
             info.frame.describe(),
             args.city.display(),
@@ -159,7 +159,7 @@ fn run_in_pool(args: &VerifyArgs, threads: usize) -> Result<i32> {
         .enumerate()
         .map(|(k, id)| {
             by_id.get(id.as_str()).copied().ok_or_else(|| {
-                Error::new(format!(
+                Error::mismatch(format!(
                     "{pvs_name}: object {k} (id {id}) is not a building of {}: wrong city or wrong file",
                     args.city.display()
                 ))
@@ -167,7 +167,7 @@ fn run_in_pool(args: &VerifyArgs, threads: usize) -> Result<i32> {
         })
         .collect::<Result<Vec<u32>>>()?;
     if object_to_building.len() != city.buildings.len() {
-        return Err(Error::new(format!(
+        return Err(Error::mismatch(format!(
             "{pvs_name}: has {} objects but {} has {} buildings: wrong city or wrong file",
             object_to_building.len(),
             args.city.display(),
@@ -225,7 +225,7 @@ fn run_in_pool(args: &VerifyArgs, threads: usize) -> Result<i32> {
     }
     let judged = report.judged_viewpoints();
     if report.cells_checked == 0 || judged == 0 {
-        return Err(Error::new(format!(
+        return Err(Error::mismatch(format!(
             "{pvs_name}: nothing was judged: {} cells checked, {} viewpoints, all of them inside buildings \
              (the cells overlap the footprints: wrong city or wrong file?)",
             report.cells_checked, report.viewpoints

@@ -21,7 +21,7 @@ pub struct Focus {
 fn check_cell(scene: &Scene, cell: usize) -> Result<()> {
     let cells = scene.cells.triangles.len();
     if cell >= cells {
-        return Err(Error::new(format!(
+        return Err(Error::usage(format!(
             "cell {cell} does not exist (the scene has {cells} cells, numbered from 0)"
         )));
     }
@@ -35,12 +35,12 @@ impl Focus {
         check_cell(scene, cell)?;
         let buildings = scene.city.buildings.len();
         if let Some(&bad) = visible.iter().find(|&&o| o as usize >= buildings) {
-            return Err(Error::new(format!(
+            return Err(Error::usage(format!(
                 "cell {cell}: visible object {bad} does not exist (the city has {buildings} buildings)"
             )));
         }
         if visible.windows(2).any(|w| w[0] >= w[1]) {
-            return Err(Error::new(format!(
+            return Err(Error::usage(format!(
                 "cell {cell}: the visible set is not in ascending order"
             )));
         }

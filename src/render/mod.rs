@@ -119,7 +119,7 @@ pub fn cell_containing(scene: &Scene, p: DVec2) -> Option<usize> {
 fn check(picture: &Picture) -> Result<Rect> {
     let scene = picture.scene;
     if !(MIN_SIZE..=MAX_SIZE).contains(&picture.width) {
-        return Err(Error::new(format!(
+        return Err(Error::usage(format!(
             "--size must be between {MIN_SIZE} and {MAX_SIZE} pixels, got {}",
             picture.width
         )));
@@ -127,7 +127,7 @@ fn check(picture: &Picture) -> Result<Rect> {
     if let Some(f) = picture.focus
         && f.cell >= scene.cells.triangles.len()
     {
-        return Err(Error::new(format!(
+        return Err(Error::usage(format!(
             "cell {} does not exist (the scene has {} cells)",
             f.cell,
             scene.cells.triangles.len()
@@ -136,7 +136,7 @@ fn check(picture: &Picture) -> Result<Rect> {
     if let Some(sizes) = picture.pvs_sizes
         && sizes.len() != scene.cells.triangles.len()
     {
-        return Err(Error::new(format!(
+        return Err(Error::usage(format!(
             "{} PVS sizes given for {} cells",
             sizes.len(),
             scene.cells.triangles.len()
@@ -145,7 +145,7 @@ fn check(picture: &Picture) -> Result<Rect> {
     if let Some(c) = picture.cull_map
         && (c.heights.len() != c.width * c.height || c.pixel.is_nan() || c.pixel <= 0.0)
     {
-        return Err(Error::new(format!(
+        return Err(Error::usage(format!(
             "the cull map's {} heights do not fill {} x {} pixels of {} m",
             c.heights.len(),
             c.width,
@@ -156,7 +156,7 @@ fn check(picture: &Picture) -> Result<Rect> {
     let view = picture.view.unwrap_or_else(|| scene_bounds(scene));
     let finite = [view.min, view.max].iter().all(|p| p.is_finite());
     if !finite || view.is_empty() || view.width() <= 0.0 && view.height() <= 0.0 {
-        return Err(Error::new(
+        return Err(Error::usage(
             "nothing to draw: the scene has no cells and no buildings".to_string(),
         ));
     }
@@ -271,7 +271,7 @@ pub fn render(picture: &Picture) -> Result<Rendered> {
     });
 
     let mut map = Pixmap::new(vp.width, vp.height).ok_or_else(|| {
-        Error::new(format!(
+        Error::usage(format!(
             "cannot make a {} x {} picture",
             vp.width, vp.height
         ))
@@ -320,7 +320,7 @@ pub fn render(picture: &Picture) -> Result<Rendered> {
     let layout = legend::layout(&entries, width, vp.scale);
     let total = vp.height + layout.height();
     let mut pixmap = Pixmap::new(width, total)
-        .ok_or_else(|| Error::new(format!("cannot make a {width} x {total} picture")))?;
+        .ok_or_else(|| Error::usage(format!("cannot make a {width} x {total} picture")))?;
     pixmap.fill(palette::PANEL.color());
     pixmap.draw_pixmap(
         0,
