@@ -90,7 +90,7 @@ pub fn bake_range(
             )),
             Ok(saved) => match part.mismatch(&saved) {
                 Some(what) => log(format!(
-                    "ignoring checkpoint {}: it is of another input or other settings ({what} differ); starting over",
+                    "ignoring checkpoint {}: it is of another input or other settings (differs in: {what}); starting over",
                     cp_path.display()
                 )),
                 None => {
