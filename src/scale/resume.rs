@@ -1,13 +1,15 @@
 //! Resumable bakes: a range of cells (a whole bake, or one shard) is solved
-//! in chunks of at most 5 % of its cells, and after each chunk (and at least
-//! once a minute) the finished prefix is saved atomically to a checkpoint
-//! next to the output (`OUTPUT.citypvs-checkpoint`). Run again after a
+//! in chunks that end at every 5 % of its cells and take about 20 s each;
+//! after every 5 % (and at least once a minute) the finished prefix is
+//! saved atomically to a checkpoint next to the output
+//! (`OUTPUT.citypvs-checkpoint`). Run again after a
 //! crash, the bake reads the checkpoint, checks that it belongs to the same
 //! bake (input hash, every setting, tool version, shard, range, objects and
 //! cells) and solves only the cells after the saved prefix. Since a cell's
 //! set depends on the scene and the cell only, the result is the same as an
 //! uninterrupted bake's.
 
+use std::cell::Cell;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -23,6 +25,12 @@ use crate::visibility::{CHUNK_CELLS, VisibilityEngine};
 pub const CHECKPOINT_INTERVAL: Duration = Duration::from_secs(60);
 /// ... and after every 1/CHECKPOINT_STEPS of the range's cells (5 %).
 pub const CHECKPOINT_STEPS: usize = 20;
+
+/// A chunk is sized to take about this many seconds at the pace measured
+/// on the chunk before it.
+pub const CHUNK_SECONDS: f64 = 20.0;
+/// The first chunk's size, before any pace is known.
+pub const FIRST_CHUNK_CELLS: usize = 16;
 
 /// Where the checkpoint of a bake writing `output` lives.
 pub fn checkpoint_path(output: &Path) -> PathBuf {
@@ -112,22 +120,47 @@ pub fn bake_range(
     progress(from_checkpoint as u64);
 
     let todo = range.start + from_checkpoint..range.end;
-    let chunk = range.len().div_ceil(CHECKPOINT_STEPS).clamp(1, CHUNK_CELLS);
-    let mut last_save = Instant::now();
+    // Chunks end at the 5 % marks (counted from where this run starts) and
+    // are sized from the measured pace to take about CHUNK_SECONDS, so a
+    // checkpoint is saved after every 5 % of the cells and at least once a
+    // minute even when cells get slower.
+    let step = range.len().div_ceil(CHECKPOINT_STEPS).max(1);
+    let since_save = Cell::new(0usize);
+    let last_save = Cell::new(Instant::now());
+    let chunk_end = Cell::new(todo.start);
+    let last_chunk: Cell<Option<(usize, Instant)>> = Cell::new(None);
+    let next_chunk = |start: usize| {
+        let pace = match last_chunk.get() {
+            None => FIRST_CHUNK_CELLS,
+            Some((cells, began)) => {
+                let seconds = began.elapsed().as_secs_f64().max(1e-3);
+                ((cells as f64 / seconds) * CHUNK_SECONDS).floor() as usize
+            }
+        };
+        let n = pace
+            .min(step - since_save.get().min(step - 1))
+            .clamp(1, CHUNK_CELLS);
+        last_chunk.set(Some((n, Instant::now())));
+        chunk_end.set((start + n).min(todo.end));
+        n
+    };
     let mut written = 0;
-    let mut since_save = 0;
-    let mut solve = engine.solve_cells_chunked(todo.clone(), chunk, progress, |cell, set| {
+    let mut solve = engine.solve_cells_paced(todo.clone(), next_chunk, progress, |cell, set| {
         tally.add(&set);
         let (lens, gaps) = pack_sets(std::iter::once(set.as_slice()));
         part.set_lens.extend(lens);
         part.set_gaps.extend(gaps);
-        since_save += 1;
+        since_save.set(since_save.get() + 1);
+        let chunk_done = cell + 1 == chunk_end.get();
         let finished = cell + 1 == todo.end;
-        if !finished && (since_save >= chunk || last_save.elapsed() >= CHECKPOINT_INTERVAL) {
+        if chunk_done
+            && !finished
+            && (since_save.get() >= step || last_save.get().elapsed() >= CHECKPOINT_INTERVAL)
+        {
             part.write(&cp_path)?;
             written += 1;
-            since_save = 0;
-            last_save = Instant::now();
+            since_save.set(0);
+            last_save.set(Instant::now());
         }
         Ok(())
     })?;

@@ -241,9 +241,24 @@ impl<'a> VisibilityEngine<'a> {
         range: Range<usize>,
         chunk: usize,
         progress: &(dyn Fn(u64) + Sync),
+        sink: impl FnMut(usize, Vec<u32>) -> Result<()>,
+    ) -> Result<SolveStats> {
+        self.solve_cells_paced(range, |_| chunk, progress, sink)
+    }
+
+    /// [`VisibilityEngine::solve_cells`] with chunk sizes chosen as it goes:
+    /// `next_chunk(start)` is asked, before each chunk, how many cells
+    /// (at least 1) the chunk starting at cell `start` takes, e.g. to end
+    /// chunks at checkpoint marks or to keep each chunk short in time. Units
+    /// shared across chunks are kept as with fixed chunks; the sets are the
+    /// same for any chunk sizes.
+    pub fn solve_cells_paced(
+        &self,
+        range: Range<usize>,
+        mut next_chunk: impl FnMut(usize) -> usize,
+        progress: &(dyn Fn(u64) + Sync),
         mut sink: impl FnMut(usize, Vec<u32>) -> Result<()>,
     ) -> Result<SolveStats> {
-        let chunk = chunk.max(1);
         let range = range.start.min(self.cells.len())..range.end.min(self.cells.len());
         let mut stats = SolveStats {
             samples: self.sample_count(range.clone()),
@@ -259,7 +274,7 @@ impl<'a> VisibilityEngine<'a> {
         let mut held: HashMap<UnitId, std::sync::Arc<Vec<u32>>> = HashMap::new();
         let mut start = range.start;
         while start < range.end {
-            let end = (start + chunk).min(range.end);
+            let end = (start + next_chunk(start).max(1)).min(range.end);
             let mut needed: Vec<UnitId> = (start..end).flat_map(|c| self.cell_units(c)).collect();
             needed.sort_unstable();
             needed.dedup();
