@@ -520,6 +520,6 @@ mod tests {
         bytes.extend_from_slice(&payload);
         let err = Part::decode(&bytes).unwrap_err();
         assert_eq!(err.kind(), &crate::ErrorKind::Format, "{err}");
-        assert!(err.to_string().contains("invalid payload"), "{err}");
+        assert!(err.to_string().contains("LimitExceeded"), "{err}");
     }
 }
