@@ -20,6 +20,7 @@
 //! | judging | [`verify`] | independent dense point-sampling check of conservativeness |
 //! | test cities | [`generate`] | procedural cities |
 //! | pictures | [`render`] | PNG maps of cities, cells and PVS |
+//! | scale-out | [`scale`] | shards, merge, checkpoints and resume, diff of two `.pvs` files |
 //! | command line | [`cli`] | the `citypvs` subcommands |
 
 pub mod atomic;
@@ -34,6 +35,7 @@ pub mod model;
 pub mod prepare;
 pub mod pvs;
 pub mod render;
+pub mod scale;
 pub mod settings;
 pub mod verify;
 pub mod visibility;

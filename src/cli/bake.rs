@@ -1,5 +1,6 @@
 //! `citypvs bake`: read (or generate) a city, prepare it, compute every
-//! cell's PVS, write the `.pvs` file atomically and print a summary.
+//! cell's PVS (or one shard's cells), saving checkpoints and resuming from
+//! one, write the `.pvs` (or shard) file atomically and print a summary.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -11,6 +12,8 @@ use super::common::{InputArgs, SceneArgs, ViewArgs};
 use crate::Result;
 use crate::input::{City, read_city, read_city_bytes};
 use crate::prepare::{StageTime, prepare};
+use crate::scale::resume::{bake_range, remove_checkpoint};
+use crate::scale::shard::{ShardArg, ShardSpec};
 
 /// Buildings in the embedded default city.
 pub const DEFAULT_CITY_BUILDINGS: usize = 400;
@@ -40,6 +43,13 @@ pub struct BakeArgs {
     /// Print the summary as one JSON object.
     #[arg(long)]
     pub json: bool,
+    /// Bake only shard K of N (numbered from 0) and write a shard file
+    /// [default: CITY.shard-K-of-N] for `citypvs merge`. With auto/N, K is
+    /// read from the first of these that is set: JOB_COMPLETION_INDEX
+    /// (Kubernetes Indexed Job), SLURM_ARRAY_TASK_ID (Slurm job array),
+    /// CITYPVS_SHARD (anything else).
+    #[arg(long, value_name = "K/N")]
+    pub shard: Option<String>,
 }
 
 /// What `bake --json` prints.
@@ -58,6 +68,18 @@ struct Summary<'a> {
     peak_memory_bytes: Option<u64>,
     threads: usize,
     timings: &'a [StageTime],
+    /// "K/N" for a shard.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    shard: Option<String>,
+    /// The environment variable K came from (`--shard auto/N`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    shard_from: Option<&'static str>,
+    /// The cells baked, a range of the whole bake's cell order.
+    cell_range: [usize; 2],
+    /// Cells whose sets were read from a checkpoint instead of solved.
+    cells_from_checkpoint: usize,
+    /// Checkpoints saved while baking.
+    checkpoints_written: usize,
 }
 
 fn load_city(args: &BakeArgs) -> Result<(City, String)> {
@@ -82,7 +104,20 @@ fn load_city(args: &BakeArgs) -> Result<(City, String)> {
     }
 }
 
-fn output_path(args: &BakeArgs) -> PathBuf {
+fn city_stem(args: &BakeArgs) -> String {
+    match &args.city {
+        Some(city) => city
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "city".into()),
+        None => "default-city".into(),
+    }
+}
+
+fn output_path(args: &BakeArgs, shard: Option<ShardSpec>) -> PathBuf {
+    if let (None, Some(spec)) = (&args.output, shard) {
+        return crate::scale::shard::default_shard_path(&city_stem(args), spec);
+    }
     match (&args.output, &args.city) {
         (Some(o), _) => o.clone(),
         (None, Some(city)) => {
@@ -102,7 +137,12 @@ pub fn run(args: &BakeArgs) -> Result<i32> {
 }
 
 fn run_in_pool(args: &BakeArgs, threads: usize) -> Result<i32> {
-    let output = output_path(args);
+    // The shard first: a bad --shard or environment fails before any work.
+    let shard = match &args.shard {
+        Some(text) => Some(ShardArg::parse(text)?.resolve(|name| std::env::var(name).ok())?),
+        None => None,
+    };
+    let output = output_path(args, shard.map(|(s, _)| s));
     let inputs: Vec<&Path> = args
         .city
         .iter()
@@ -123,33 +163,71 @@ fn run_in_pool(args: &BakeArgs, threads: usize) -> Result<i32> {
         },
     );
 
-    let bar = super::common::progress_bar(args.quiet, "cells", scene.cells.triangles.len() as u64);
+    let engine = crate::visibility::VisibilityEngine::new(&scene)?;
+    let cells = scene.cells.triangles.len();
+    let (spec, range) = match shard {
+        Some((spec, _)) => {
+            let ranges = crate::scale::shard::split(&engine.cell_costs(), spec.n);
+            (spec, ranges[spec.k].clone())
+        }
+        None => (ShardSpec { k: 0, n: 1 }, 0..cells),
+    };
+
+    let bar = super::common::progress_bar(args.quiet, "cells", range.len() as u64);
     let tick = |n: u64| {
         if let Some(b) = &bar {
             b.inc(n)
         }
     };
-    let (data, stats, visibility_time) = crate::bake::bake(&scene, &tick)?;
+    let mut log = |line: String| match &bar {
+        Some(b) => b.println(line),
+        None => eprintln!("{line}"),
+    };
+    let baked = bake_range(
+        &scene,
+        &engine,
+        spec,
+        range.clone(),
+        &output,
+        &tick,
+        &mut log,
+    )?;
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
     let mut timings = scene.timings.clone();
-    timings.push(visibility_time);
+    timings.push(baked.timing.clone());
 
     let t = Instant::now();
-    let write_stats = crate::pvs::write_pvs(&output, &data)?;
+    let write_stats = if shard.is_some() {
+        baked.part.write(&output)?;
+        crate::pvs::WriteStats {
+            file_bytes: std::fs::metadata(&output).map(|m| m.len()).unwrap_or(0),
+            ..Default::default()
+        }
+    } else {
+        let data = crate::pvs::PvsData {
+            info: crate::bake::bake_info(&scene),
+            object_ids: scene.city.buildings.iter().map(|b| b.id.clone()).collect(),
+            cells: scene.cells.triangles.clone(),
+            visible: baked.part.sets(),
+        };
+        crate::pvs::write_pvs(&output, &data)?
+    };
+    remove_checkpoint(&output)?;
     timings.push(StageTime {
         stage: "write",
         seconds: t.elapsed().as_secs_f64(),
     });
 
+    let stats = &baked.stats;
     let summary = Summary {
         city: city_name,
         output: output.display().to_string(),
         buildings: scene.city.buildings.len(),
         repaired: scene.city.report.repaired.len(),
         skipped: scene.city.report.skipped.len(),
-        stats: &stats,
+        stats,
         file_bytes: write_stats.file_bytes,
         bytes_per_cell: if stats.cells > 0 {
             write_stats.file_bytes as f64 / stats.cells as f64
@@ -160,6 +238,11 @@ fn run_in_pool(args: &BakeArgs, threads: usize) -> Result<i32> {
         peak_memory_bytes: crate::bake::peak_memory_bytes(),
         threads,
         timings: &timings,
+        shard: shard.map(|(s, _)| format!("{}/{}", s.k, s.n)),
+        shard_from: shard.and_then(|(_, from)| from),
+        cell_range: [range.start, range.end],
+        cells_from_checkpoint: baked.cells_from_checkpoint,
+        checkpoints_written: baked.checkpoints_written,
     };
     let mut out = super::common::summary_stream(&[&output]);
     if args.json {
@@ -176,6 +259,21 @@ fn run_in_pool(args: &BakeArgs, threads: usize) -> Result<i32> {
 
 fn print_summary(out: &mut dyn std::io::Write, s: &Summary) {
     say!(out, "baked {} -> {}", s.city, s.output);
+    if let Some(shard) = &s.shard {
+        say!(
+            out,
+            "shard          {shard} (cells {}..{})",
+            s.cell_range[0],
+            s.cell_range[1]
+        );
+    }
+    if s.cells_from_checkpoint > 0 {
+        say!(
+            out,
+            "resumed        {} cells from the checkpoint",
+            s.cells_from_checkpoint
+        );
+    }
     say!(
         out,
         "buildings      {} ({} repaired, {} skipped)",

@@ -12,8 +12,10 @@ macro_rules! say {
 pub mod bake;
 pub mod bench;
 pub mod common;
+pub mod diff;
 pub mod generate;
 pub mod inspect;
+pub mod merge;
 pub mod prepare;
 pub mod render;
 pub mod verify;
@@ -36,6 +38,10 @@ pub enum Command {
     Prepare(prepare::PrepareArgs),
     /// Compute every view cell's potentially visible set and write a .pvs file.
     Bake(bake::BakeArgs),
+    /// Merge the shard files of a sharded bake into the .pvs file one bake would write.
+    Merge(merge::MergeArgs),
+    /// List what changed between two .pvs files (exit 0: equal, 1: different, 2: error).
+    Diff(diff::DiffArgs),
     /// Measure preparation and bake speed on generated cities of several sizes.
     Bench(bench::BenchArgs),
     /// Print a .pvs file's header and statistics, or dump it as JSON.
@@ -53,6 +59,8 @@ pub fn main() -> i32 {
         Command::Generate(args) => generate::run(&args),
         Command::Prepare(args) => prepare::run(&args),
         Command::Bake(args) => bake::run(&args),
+        Command::Merge(args) => merge::run(&args),
+        Command::Diff(args) => diff::run(&args),
         Command::Bench(args) => bench::run(&args),
         Command::Inspect(args) => inspect::run(&args),
         Command::Verify(args) => verify::run(&args),

@@ -188,6 +188,23 @@ impl<'a> VisibilityEngine<'a> {
         samples
     }
 
+    /// Each cell's share of the samples: the samples of the units (corners
+    /// and edges) the cell is the first in cell order to use. The sum over
+    /// cells `0..i` is `sample_count(0..i)`; a cost estimate for splitting
+    /// the cells into ranges of about equal work.
+    pub fn cell_costs(&self) -> Vec<usize> {
+        let mut seen = vec![false; self.vertex_count() + self.topo.edges.len()];
+        (0..self.cells.len())
+            .map(|cell| {
+                self.cell_units(cell)
+                    .into_iter()
+                    .filter(|&u| !std::mem::replace(&mut seen[u as usize], true))
+                    .map(|u| self.unit_sample_count(u))
+                    .sum()
+            })
+            .collect()
+    }
+
     fn unit_sample_count(&self, unit: UnitId) -> usize {
         let n = self.vertex_count();
         let u = unit as usize;
@@ -210,6 +227,36 @@ impl<'a> VisibilityEngine<'a> {
         &self,
         range: Range<usize>,
         progress: &(dyn Fn(u64) + Sync),
+        sink: impl FnMut(usize, Vec<u32>) -> Result<()>,
+    ) -> Result<SolveStats> {
+        self.solve_cells_chunked(range, CHUNK_CELLS, progress, sink)
+    }
+
+    /// [`VisibilityEngine::solve_cells`] with chunks of `chunk` cells (at
+    /// least 1): the sink gets a chunk's cells together, so a caller that
+    /// saves its progress (a checkpoint) can do so every `chunk` cells. The
+    /// sets are the same for any chunk size.
+    pub fn solve_cells_chunked(
+        &self,
+        range: Range<usize>,
+        chunk: usize,
+        progress: &(dyn Fn(u64) + Sync),
+        sink: impl FnMut(usize, Vec<u32>) -> Result<()>,
+    ) -> Result<SolveStats> {
+        self.solve_cells_paced(range, |_| chunk, progress, sink)
+    }
+
+    /// [`VisibilityEngine::solve_cells`] with chunk sizes chosen as it goes:
+    /// `next_chunk(start)` is asked, before each chunk, how many cells
+    /// (at least 1) the chunk starting at cell `start` takes, e.g. to end
+    /// chunks at checkpoint marks or to keep each chunk short in time. Units
+    /// shared across chunks are kept as with fixed chunks; the sets are the
+    /// same for any chunk sizes.
+    pub fn solve_cells_paced(
+        &self,
+        range: Range<usize>,
+        mut next_chunk: impl FnMut(usize) -> usize,
+        progress: &(dyn Fn(u64) + Sync),
         mut sink: impl FnMut(usize, Vec<u32>) -> Result<()>,
     ) -> Result<SolveStats> {
         let range = range.start.min(self.cells.len())..range.end.min(self.cells.len());
@@ -227,7 +274,7 @@ impl<'a> VisibilityEngine<'a> {
         let mut held: HashMap<UnitId, std::sync::Arc<Vec<u32>>> = HashMap::new();
         let mut start = range.start;
         while start < range.end {
-            let end = (start + CHUNK_CELLS).min(range.end);
+            let end = (start + next_chunk(start).max(1)).min(range.end);
             let mut needed: Vec<UnitId> = (start..end).flat_map(|c| self.cell_units(c)).collect();
             needed.sort_unstable();
             needed.dedup();

@@ -1,0 +1,14 @@
+//! Bakes that outgrow one machine or one run: shards (a bake split into N
+//! contiguous, cost-balanced ranges of cells, baked by separate processes
+//! and merged into the bytes one bake writes), checkpoints (a bake that is
+//! killed picks up where it stopped), and the difference between two
+//! `.pvs` files. See docs/scale-out.md.
+//!
+//! Submodules: [`part`] (the shard and checkpoint file), [`shard`] (which
+//! shard, the split, the merge), [`resume`] (the checkpointed bake of a
+//! range), [`diff`] (comparing two `.pvs` files).
+
+pub mod diff;
+pub mod part;
+pub mod resume;
+pub mod shard;
