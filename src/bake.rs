@@ -61,8 +61,11 @@ pub fn bake(
             pixel: params.pixel,
             max_cell_edge,
             margin,
+            near_field: params.near_field,
+            min_gap: 0.0,
             frame: scene.city.frame.clone(),
             source_hash: scene.city.source_hash,
+            region_hash: [0; 32],
             tool_version: env!("CARGO_PKG_VERSION").to_string(),
         },
         object_ids: scene.city.buildings.iter().map(|b| b.id.clone()).collect(),
@@ -70,6 +73,21 @@ pub fn bake(
         visible: result.visible,
     };
     Ok((data, stats, timing))
+}
+
+/// One representative point per object (the centre of its footprint's
+/// bounding box), for the file's spatial numbering of objects.
+pub fn object_points(scene: &Scene) -> Vec<glam::DVec2> {
+    scene
+        .city
+        .buildings
+        .iter()
+        .map(|b| {
+            let r = crate::model::multipolygon_bounds(&b.footprint);
+            let c = (r.min + r.max) / 2.0;
+            if c.is_finite() { c } else { glam::DVec2::ZERO }
+        })
+        .collect()
 }
 
 /// Peak resident memory of this process in bytes, where the OS tells it.

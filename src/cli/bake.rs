@@ -146,7 +146,8 @@ fn run_in_pool(args: &BakeArgs, threads: usize) -> Result<i32> {
 
     let output = output_path(args);
     let t = Instant::now();
-    let write_stats = crate::pvs::write_pvs(&output, &data)?;
+    let write_stats =
+        crate::pvs::write_pvs_with_points(&output, &data, crate::bake::object_points(&scene))?;
     timings.push(StageTime {
         stage: "write",
         seconds: t.elapsed().as_secs_f64(),

@@ -101,7 +101,7 @@ fn open_pvs(path: &Path, scene: &Scene, args: &RenderArgs) -> Result<PvsReader> 
         .eq(scene.city.buildings.iter().map(|b| &b.id));
     if !ids_match
         || info.eps != scene.eps
-        || reader.cell_triangles() != scene.cells.triangles.as_slice()
+        || reader.cell_triangles() != scene.cells.triangles
     {
         return Err(Error::new(format!(
             "{}: its {} cells and {} objects (eps {}) are not the {} cells and {} buildings (eps {}) \
@@ -216,11 +216,14 @@ pub fn draw(args: &RenderArgs, scene: &Scene) -> Result<Drawing> {
     };
     let pvs_sizes: Option<Vec<usize>> = match &reader {
         _ if !wants(Layer::PvsSize) => None,
-        Some(r) => Some(
-            (0..r.cell_count())
-                .map(|c| r.visible(c).map(|v| v.len()))
-                .collect::<Result<_>>()?,
-        ),
+        Some(r) => {
+            let mut sizes = Vec::with_capacity(r.cell_count());
+            r.for_each_visible(|_, v| {
+                sizes.push(v.len());
+                Ok(())
+            })?;
+            Some(sizes)
+        }
         None => {
             eprintln!(
                 "computing the PVS of all {} cells (pass --pvs FILE to read them from a bake)",

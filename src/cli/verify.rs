@@ -114,17 +114,14 @@ fn run_in_pool(args: &VerifyArgs, threads: usize) -> Result<i32> {
             city.buildings.len()
         )));
     }
-    let visible = (0..reader.cell_count())
-        .map(|c| {
-            let mut set: Vec<u32> = reader
-                .visible(c)?
-                .into_iter()
-                .map(|o| object_to_building[o as usize])
-                .collect();
+    let mut visible = Vec::with_capacity(reader.cell_count());
+    reader
+        .for_each_visible(|_, set| {
+            let mut set: Vec<u32> = set.iter().map(|&o| object_to_building[o as usize]).collect();
             set.sort_unstable();
-            Ok(set)
+            visible.push(set);
+            Ok(())
         })
-        .collect::<Result<Vec<_>>>()
         .map_err(|e| e.context(&pvs_name))?;
     let options = VerifyOptions {
         cells: if args.all { None } else { Some(args.cells) },
@@ -143,7 +140,7 @@ fn run_in_pool(args: &VerifyArgs, threads: usize) -> Result<i32> {
     };
     let mut report = verify_with_progress(
         &city.buildings,
-        reader.cell_triangles(),
+        &reader.cell_triangles(),
         info.eye_height,
         &visible,
         &options,

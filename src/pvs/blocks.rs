@@ -1,0 +1,265 @@
+//! The coding of the visible sets inside a block (docs/FORMAT.md, "Blocks"):
+//! each cell is one head varint (item count and mode) and a list of object
+//! ranks, either the cell's whole set or its symmetric difference from the
+//! previous cell of the block, as gaps or as runs. Decoding checks every
+//! count against the bytes left before it expands anything.
+
+use super::codec::write_leb128;
+
+/// The list is the cell's set, as gap varints.
+pub const MODE_SET_GAPS: u8 = 0;
+/// The list is the difference from the previous cell's set, as gap varints.
+pub const MODE_DIFF_GAPS: u8 = 1;
+/// The list is the cell's set, as runs.
+pub const MODE_SET_RUNS: u8 = 2;
+/// The list is the difference from the previous cell's set, as runs.
+pub const MODE_DIFF_RUNS: u8 = 3;
+/// Names of the modes, index = mode.
+pub const MODE_NAMES: [&str; 4] = ["set-gaps", "diff-gaps", "set-runs", "diff-runs"];
+
+/// Bytes of `v` as a LEB128 varint.
+pub fn varint_len(v: u64) -> usize {
+    ((64 - (v | 1).leading_zeros() as usize) + 6) / 7
+}
+
+/// Read a LEB128 varint of at most 10 bytes whose value fits in 64 bits.
+pub fn read_varint(bytes: &[u8], pos: &mut usize) -> Result<u64, String> {
+    let mut value: u64 = 0;
+    for i in 0..10 {
+        let Some(&byte) = bytes.get(*pos) else {
+            return Err("varint runs past the end of the block".into());
+        };
+        *pos += 1;
+        let bits = u64::from(byte & 0x7f);
+        if i == 9 && bits > 1 {
+            return Err("varint exceeds 2^64 - 1".into());
+        }
+        value |= bits << (7 * i);
+        if byte & 0x80 == 0 {
+            return Ok(value);
+        }
+    }
+    Err("varint longer than 10 bytes".into())
+}
+
+/// The symmetric difference of two ascending lists, ascending, into `out`.
+pub fn symmetric_difference(a: &[u32], b: &[u32], out: &mut Vec<u32>) {
+    out.clear();
+    let (mut i, mut j) = (0, 0);
+    while i < a.len() && j < b.len() {
+        match a[i].cmp(&b[j]) {
+            std::cmp::Ordering::Less => {
+                out.push(a[i]);
+                i += 1;
+            }
+            std::cmp::Ordering::Greater => {
+                out.push(b[j]);
+                j += 1;
+            }
+            std::cmp::Ordering::Equal => {
+                i += 1;
+                j += 1;
+            }
+        }
+    }
+    out.extend_from_slice(&a[i..]);
+    out.extend_from_slice(&b[j..]);
+}
+
+/// Item count and byte length of `list` as gaps.
+fn gaps_size(list: &[u32]) -> (u64, usize) {
+    let mut next = 0u64;
+    let mut bytes = 0;
+    for &i in list {
+        bytes += varint_len(u64::from(i) - next);
+        next = u64::from(i) + 1;
+    }
+    (list.len() as u64, bytes)
+}
+
+/// Call `f(start, last)` for each maximal run of consecutive values.
+fn for_runs(list: &[u32], mut f: impl FnMut(u32, u32)) {
+    let mut k = 0;
+    while k < list.len() {
+        let mut end = k + 1;
+        while end < list.len() && list[end] == list[end - 1] + 1 {
+            end += 1;
+        }
+        f(list[k], list[end - 1]);
+        k = end;
+    }
+}
+
+/// Item count (runs) and byte length of `list` as runs.
+fn runs_size(list: &[u32]) -> (u64, usize) {
+    let (mut count, mut bytes, mut next) = (0u64, 0usize, 0u64);
+    for_runs(list, |start, last| {
+        count += 1;
+        bytes += varint_len(u64::from(start) - next) + varint_len(u64::from(last - start));
+        next = u64::from(last) + 2;
+    });
+    (count, bytes)
+}
+
+fn put_gaps(out: &mut Vec<u8>, list: &[u32]) {
+    let mut next = 0u64;
+    for &i in list {
+        write_leb128(out, u64::from(i) - next);
+        next = u64::from(i) + 1;
+    }
+}
+
+fn put_runs(out: &mut Vec<u8>, list: &[u32]) {
+    let mut next = 0u64;
+    for_runs(list, |start, last| {
+        write_leb128(out, u64::from(start) - next);
+        write_leb128(out, u64::from(last - start));
+        next = u64::from(last) + 2;
+    });
+}
+
+/// Append the coding of `cur` (ascending ranks) given the previous cell's
+/// set `prev` (empty for a block's first cell); `diff` is scratch. Writes
+/// the shortest of the four modes (ties: lowest mode) and returns the mode.
+pub fn encode_cell(prev: &[u32], cur: &[u32], diff: &mut Vec<u32>, out: &mut Vec<u8>) -> u8 {
+    symmetric_difference(prev, cur, diff);
+    let sizes = [
+        gaps_size(cur),
+        gaps_size(diff),
+        runs_size(cur),
+        runs_size(diff),
+    ];
+    let (mode, (count, _)) = sizes
+        .iter()
+        .enumerate()
+        .min_by_key(|(m, (count, bytes))| (varint_len(count << 2) + bytes, *m))
+        .expect("four modes");
+    write_leb128(out, (count << 2) | mode as u64);
+    let list: &[u32] = if mode % 2 == 0 { cur } else { diff };
+    if mode < 2 {
+        put_gaps(out, list);
+    } else {
+        put_runs(out, list);
+    }
+    mode as u8
+}
+
+/// Decode one cell at `bytes[*pos..]`: `set` holds the previous cell's set
+/// (empty for a block's first cell) and is replaced by this cell's, ascending
+/// ranks below `n`. `scratch` is reused between calls. Returns the mode.
+pub fn decode_cell(
+    bytes: &[u8],
+    pos: &mut usize,
+    n: u32,
+    set: &mut Vec<u32>,
+    scratch: &mut Vec<u32>,
+    out: &mut Vec<u32>,
+) -> Result<u8, String> {
+    let head = read_varint(bytes, pos)?;
+    let mode = (head & 3) as u8;
+    let count = head >> 2;
+    let left = (bytes.len() - *pos) as u64;
+    let per_item = if mode < 2 { 1 } else { 2 };
+    // Every item takes at least `per_item` bytes: refuse before expanding.
+    if count > left / per_item {
+        return Err(format!(
+            "a cell claims {count} list items but only {left} bytes are left in the block"
+        ));
+    }
+    scratch.clear();
+    let mut next = 0u64;
+    for _ in 0..count {
+        let overflow = || format!("object rank out of range (the file has {n} objects)");
+        let start = next.checked_add(read_varint(bytes, pos)?).ok_or_else(overflow)?;
+        let last = if mode < 2 {
+            start
+        } else {
+            start.saturating_add(read_varint(bytes, pos)?)
+        };
+        if last >= u64::from(n) {
+            return Err(format!(
+                "object rank {last} is out of range (the file has {n} objects)"
+            ));
+        }
+        scratch.extend(start as u32..=last as u32);
+        next = last + if mode < 2 { 1 } else { 2 };
+    }
+    if mode % 2 == 0 {
+        std::mem::swap(set, scratch);
+    } else {
+        symmetric_difference(set, scratch, out);
+        std::mem::swap(set, out);
+    }
+    Ok(mode)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    #[test]
+    fn varint_lengths() {
+        for v in [0u64, 1, 127, 128, 16383, 16384, u64::from(u32::MAX), u64::MAX] {
+            let mut out = Vec::new();
+            write_leb128(&mut out, v);
+            assert_eq!(out.len(), varint_len(v), "{v}");
+            let mut pos = 0;
+            assert_eq!(read_varint(&out, &mut pos).unwrap(), v);
+        }
+        let mut pos = 0;
+        assert!(read_varint(&[0xff; 10], &mut pos).is_err());
+        let mut pos = 0;
+        assert!(read_varint(&[0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0x02], &mut pos).is_err());
+    }
+
+    #[test]
+    fn known_bytes() {
+        // {1, 2, 3, 10} after {1, 2, 3}: difference {10} as gaps: head 1<<2|1, gap 10.
+        let mut out = Vec::new();
+        let mut diff = Vec::new();
+        assert_eq!(encode_cell(&[1, 2, 3], &[1, 2, 3, 10], &mut diff, &mut out), MODE_DIFF_GAPS);
+        assert_eq!(out, [0x05, 10]);
+        // {1, 2, 3} from nothing: one run as (gap 1, length-1 2), head 1<<2|2.
+        out.clear();
+        assert_eq!(encode_cell(&[], &[1, 2, 3], &mut diff, &mut out), MODE_SET_RUNS);
+        assert_eq!(out, [0x06, 1, 2]);
+    }
+
+    proptest! {
+        #[test]
+        fn cells_round_trip(n in 1u32..3000, cells in proptest::collection::vec(proptest::collection::vec(any::<u32>(), 0..200), 1..8)) {
+            let sets: Vec<Vec<u32>> = cells.iter().map(|c| {
+                let mut s: Vec<u32> = c.iter().map(|v| v % n).collect();
+                s.sort_unstable();
+                s.dedup();
+                s
+            }).collect();
+            let mut out = Vec::new();
+            let mut diff = Vec::new();
+            let mut prev: Vec<u32> = Vec::new();
+            for s in &sets {
+                encode_cell(&prev, s, &mut diff, &mut out);
+                prev = s.clone();
+            }
+            let (mut pos, mut set, mut a, mut b) = (0, Vec::new(), Vec::new(), Vec::new());
+            for s in &sets {
+                decode_cell(&out, &mut pos, n, &mut set, &mut a, &mut b).unwrap();
+                prop_assert_eq!(&set, s);
+            }
+            prop_assert_eq!(pos, out.len());
+        }
+
+        #[test]
+        fn arbitrary_bytes_never_panic(n in 0u32..100, bytes in proptest::collection::vec(any::<u8>(), 0..60)) {
+            let (mut pos, mut set, mut a, mut b) = (0, Vec::new(), Vec::new(), Vec::new());
+            while pos < bytes.len() {
+                if decode_cell(&bytes, &mut pos, n, &mut set, &mut a, &mut b).is_err() {
+                    break;
+                }
+                prop_assert!(set.windows(2).all(|w| w[0] < w[1]));
+                prop_assert!(set.iter().all(|&i| i < n));
+            }
+        }
+    }
+}
