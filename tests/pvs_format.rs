@@ -14,8 +14,11 @@ fn info(frame: Frame) -> BakeInfo {
         pixel: 0.125,
         max_cell_edge: 20.0,
         margin: 30.0,
+        near_field: 0.0,
+        min_gap: 0.0,
         frame,
         source_hash: std::array::from_fn(|i| (i * 7 + 3) as u8),
+        region_hash: [0; 32],
         tool_version: "citypvs 0.1.0-test".into(),
     }
 }

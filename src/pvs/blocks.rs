@@ -118,46 +118,82 @@ fn put_runs(out: &mut Vec<u8>, list: &[u32]) {
     });
 }
 
-/// Append the coding of `cur` (ascending ranks) given the previous cell's
-/// set `prev` (empty for a block's first cell); `diff` is scratch. Writes
-/// the shortest of the four modes (ties: lowest mode) and returns the mode.
-pub fn encode_cell(prev: &[u32], cur: &[u32], diff: &mut Vec<u32>, out: &mut Vec<u8>) -> u8 {
-    symmetric_difference(prev, cur, diff);
-    let sizes = [
-        gaps_size(cur),
-        gaps_size(diff),
-        runs_size(cur),
-        runs_size(diff),
-    ];
-    let (mode, (count, _)) = sizes
-        .iter()
-        .enumerate()
-        .min_by_key(|(m, (count, bytes))| (varint_len(count << 2) + bytes, *m))
-        .expect("four modes");
-    write_leb128(out, (count << 2) | mode as u64);
-    let list: &[u32] = if mode % 2 == 0 { cur } else { diff };
+/// Append the coding of `cur` (ascending ranks) given the sets of the
+/// block's earlier cells, `earlier[0]` the first; `diff` is scratch. Writes
+/// the shortest coding (the set itself, or its difference from one earlier
+/// cell, each as gaps or runs; ties: lowest mode, then nearest cell) and
+/// returns the mode.
+pub fn encode_cell(earlier: &[Vec<u32>], cur: &[u32], diff: &mut Vec<u32>, out: &mut Vec<u8>) -> u8 {
+    // (bytes, mode, back) of the best coding so far.
+    let cost = |count: u64, bytes: usize, back: usize| {
+        varint_len(count << 2) + bytes + if back > 0 { varint_len(back as u64) } else { 0 }
+    };
+    let mut best = {
+        let (g, r) = (gaps_size(cur), runs_size(cur));
+        let (cg, cr) = (cost(g.0, g.1, 0), cost(r.0, r.1, 0));
+        if cr < cg { (cr, MODE_SET_RUNS, 0) } else { (cg, MODE_SET_GAPS, 0) }
+    };
+    for back in 1..=earlier.len() {
+        let prev = &earlier[earlier.len() - back];
+        if prev.len().abs_diff(cur.len()) + 1 >= best.0 {
+            continue; // the difference holds at least this many items
+        }
+        symmetric_difference(prev, cur, diff);
+        let (g, r) = (gaps_size(diff), runs_size(diff));
+        let (cg, cr) = (cost(g.0, g.1, back), cost(r.0, r.1, back));
+        if cg < best.0 {
+            best = (cg, MODE_DIFF_GAPS, back);
+        }
+        if cr < best.0 {
+            best = (cr, MODE_DIFF_RUNS, back);
+        }
+    }
+    let (_, mode, back) = best;
+    let list: &[u32] = if back == 0 {
+        cur
+    } else {
+        symmetric_difference(&earlier[earlier.len() - back], cur, diff);
+        diff
+    };
+    let count = if mode < 2 { gaps_size(list).0 } else { runs_size(list).0 };
+    write_leb128(out, (count << 2) | u64::from(mode));
+    if back > 0 {
+        write_leb128(out, back as u64);
+    }
     if mode < 2 {
         put_gaps(out, list);
     } else {
         put_runs(out, list);
     }
-    mode as u8
+    mode
 }
 
-/// Decode one cell at `bytes[*pos..]`: `set` holds the previous cell's set
-/// (empty for a block's first cell) and is replaced by this cell's, ascending
-/// ranks below `n`. `scratch` is reused between calls. Returns the mode.
+/// Decode one cell at `bytes[*pos..]` given the sets of the block's earlier
+/// cells (`earlier[0]` the first), into `set` (ascending ranks below `n`).
+/// `scratch` is reused between calls. Returns the mode.
 pub fn decode_cell(
     bytes: &[u8],
     pos: &mut usize,
     n: u32,
+    earlier: &[Vec<u32>],
     set: &mut Vec<u32>,
     scratch: &mut Vec<u32>,
-    out: &mut Vec<u32>,
 ) -> Result<u8, String> {
     let head = read_varint(bytes, pos)?;
     let mode = (head & 3) as u8;
     let count = head >> 2;
+    let reference = if mode % 2 == 1 {
+        let back = read_varint(bytes, pos)?;
+        if back == 0 || back > earlier.len() as u64 {
+            return Err(format!(
+                "a cell refers {back} cells back, but {} cells precede it in its block",
+                earlier.len()
+            ));
+        }
+        Some(&earlier[earlier.len() - back as usize])
+    } else {
+        None
+    };
     let left = (bytes.len() - *pos) as u64;
     let per_item = if mode < 2 { 1 } else { 2 };
     // Every item takes at least `per_item` bytes: refuse before expanding.
@@ -184,11 +220,9 @@ pub fn decode_cell(
         scratch.extend(start as u32..=last as u32);
         next = last + if mode < 2 { 1 } else { 2 };
     }
-    if mode % 2 == 0 {
-        std::mem::swap(set, scratch);
-    } else {
-        symmetric_difference(set, scratch, out);
-        std::mem::swap(set, out);
+    match reference {
+        None => std::mem::swap(set, scratch),
+        Some(r) => symmetric_difference(r, scratch, set),
     }
     Ok(mode)
 }
@@ -218,8 +252,8 @@ mod tests {
         // {1, 2, 3, 10} after {1, 2, 3}: difference {10} as gaps: head 1<<2|1, gap 10.
         let mut out = Vec::new();
         let mut diff = Vec::new();
-        assert_eq!(encode_cell(&[1, 2, 3], &[1, 2, 3, 10], &mut diff, &mut out), MODE_DIFF_GAPS);
-        assert_eq!(out, [0x05, 10]);
+        assert_eq!(encode_cell(&[vec![1, 2, 3]], &[1, 2, 3, 10], &mut diff, &mut out), MODE_DIFF_GAPS);
+        assert_eq!(out, [0x05, 1, 10]);
         // {1, 2, 3} from nothing: one run as (gap 1, length-1 2), head 1<<2|2.
         out.clear();
         assert_eq!(encode_cell(&[], &[1, 2, 3], &mut diff, &mut out), MODE_SET_RUNS);
@@ -237,26 +271,28 @@ mod tests {
             }).collect();
             let mut out = Vec::new();
             let mut diff = Vec::new();
-            let mut prev: Vec<u32> = Vec::new();
-            for s in &sets {
-                encode_cell(&prev, s, &mut diff, &mut out);
-                prev = s.clone();
+            for k in 0..sets.len() {
+                encode_cell(&sets[..k], &sets[k], &mut diff, &mut out);
             }
-            let (mut pos, mut set, mut a, mut b) = (0, Vec::new(), Vec::new(), Vec::new());
+            let (mut pos, mut decoded, mut a) = (0, Vec::new(), Vec::new());
             for s in &sets {
-                decode_cell(&out, &mut pos, n, &mut set, &mut a, &mut b).unwrap();
+                let mut set = Vec::new();
+                decode_cell(&out, &mut pos, n, &decoded, &mut set, &mut a).unwrap();
                 prop_assert_eq!(&set, s);
+                decoded.push(set);
             }
             prop_assert_eq!(pos, out.len());
         }
 
         #[test]
         fn arbitrary_bytes_never_panic(n in 0u32..100, bytes in proptest::collection::vec(any::<u8>(), 0..60)) {
-            let (mut pos, mut set, mut a, mut b) = (0, Vec::new(), Vec::new(), Vec::new());
+            let (mut pos, mut decoded, mut a) = (0, Vec::new(), Vec::new());
             while pos < bytes.len() {
-                if decode_cell(&bytes, &mut pos, n, &mut set, &mut a, &mut b).is_err() {
+                let mut set = Vec::new();
+                if decode_cell(&bytes, &mut pos, n, &decoded, &mut set, &mut a).is_err() {
                     break;
                 }
+                decoded.push(set.clone());
                 prop_assert!(set.windows(2).all(|w| w[0] < w[1]));
                 prop_assert!(set.iter().all(|&i| i < n));
             }

@@ -11,6 +11,7 @@
 pub mod blocks;
 pub mod codec;
 mod grid;
+pub use grid::triangle_contains;
 mod read;
 #[doc(hidden)]
 pub mod v1;
@@ -139,7 +140,7 @@ pub const FORMAT_VERSION: u32 = 2;
 pub const HEADER_BYTES: usize = 232;
 /// Cells per block as the writer makes them (the reader accepts 1 to
 /// [`MAX_BLOCK_CELLS`]).
-pub const BLOCK_CELLS: u32 = 32;
+pub const BLOCK_CELLS: u32 = 64;
 /// The largest block a reader accepts.
 pub const MAX_BLOCK_CELLS: u32 = 4096;
 /// The sections after the header, in file order.

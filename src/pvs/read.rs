@@ -237,12 +237,14 @@ impl PvsReader {
         let bytes = self.block(b);
         let n = self.object_ids.len() as u32;
         let first = b * self.block_cells;
-        let (mut pos, mut set, mut a, mut c) = (0, Vec::new(), Vec::new(), Vec::new());
+        let (mut pos, mut earlier, mut scratch) = (0, Vec::new(), Vec::new());
         for k in 0..=last {
             let cell = first + k;
-            let mode = decode_cell(bytes, &mut pos, n, &mut set, &mut a, &mut c)
+            let mut set = Vec::new();
+            let mode = decode_cell(bytes, &mut pos, n, &earlier, &mut set, &mut scratch)
                 .map_err(|e| Error::new(format!("visible set of cell {cell}: {e}")))?;
             f(cell, &set, mode)?;
+            earlier.push(set);
         }
         let whole = first + last + 1 == self.cell_count() || last + 1 == self.block_cells;
         if whole && pos != bytes.len() {

@@ -30,7 +30,8 @@ pub struct PvsWriter {
     blocks_at: usize,
     pushed: usize,
     block: Vec<u8>,
-    prev: Vec<u32>,
+    /// The sets (ranks) of the block's cells so far.
+    earlier: Vec<Vec<u32>>,
     cur: Vec<u32>,
     diff: Vec<u32>,
     stats: WriteStats,
@@ -239,7 +240,7 @@ impl PvsWriter {
             blocks_at,
             pushed: 0,
             block: Vec::new(),
-            prev: Vec::new(),
+            earlier: Vec::new(),
             cur: Vec::new(),
             diff: Vec::new(),
             stats,
@@ -276,14 +277,14 @@ impl PvsWriter {
         self.cur
             .extend(visible.iter().map(|&i| self.rank_of[i as usize]));
         self.cur.sort_unstable();
-        let mode = encode_cell(&self.prev, &self.cur, &mut self.diff, &mut self.block);
+        let mode = encode_cell(&self.earlier, &self.cur, &mut self.diff, &mut self.block);
         self.mode_counts[mode as usize] += 1;
-        std::mem::swap(&mut self.prev, &mut self.cur);
+        self.earlier.push(std::mem::take(&mut self.cur));
         self.pushed += 1;
         if self.pushed % self.block_cells == 0 || self.pushed == self.cell_count {
             self.out.extend_from_slice(&self.block);
             self.block.clear();
-            self.prev.clear();
+            self.earlier.clear();
             let b = self.pushed.div_ceil(self.block_cells);
             let end = (self.out.len() - self.blocks_at) as u64;
             patch_u64(&mut self.out, self.index_at + 8 * b, end);
