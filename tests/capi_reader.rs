@@ -56,7 +56,8 @@ fn c_program_reads_a_baked_file() {
 
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let exe = dir.path().join("reader_check");
-    let lib = target_dir().join("libcitypvs.a");
+    // The static library cargo built with this test (same features).
+    let lib = target_dir().join("deps").join("libcitypvs.a");
     assert!(lib.exists(), "{} not built", lib.display());
     run(Command::new("cc")
         .arg("-std=c99")

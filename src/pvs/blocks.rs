@@ -168,31 +168,30 @@ pub fn encode_cell(earlier: &[Vec<u32>], cur: &[u32], diff: &mut Vec<u32>, out: 
     mode
 }
 
-/// Decode one cell at `bytes[*pos..]` given the sets of the block's earlier
-/// cells (`earlier[0]` the first), into `set` (ascending ranks below `n`).
-/// `scratch` is reused between calls. Returns the mode.
-pub fn decode_cell(
+/// Decode one cell's coding at `bytes[*pos..]`, `earlier` cells preceding
+/// it in its block: returns the mode and how many cells back its reference
+/// is (0 = none, the list is the set itself), and leaves the list (ascending
+/// ranks below `n`) in `list`.
+pub fn decode_list(
     bytes: &[u8],
     pos: &mut usize,
     n: u32,
-    earlier: &[Vec<u32>],
-    set: &mut Vec<u32>,
-    scratch: &mut Vec<u32>,
-) -> Result<u8, String> {
+    earlier: usize,
+    list: &mut Vec<u32>,
+) -> Result<(u8, usize), String> {
     let head = read_varint(bytes, pos)?;
     let mode = (head & 3) as u8;
     let count = head >> 2;
-    let reference = if mode % 2 == 1 {
+    let back = if mode % 2 == 1 {
         let back = read_varint(bytes, pos)?;
-        if back == 0 || back > earlier.len() as u64 {
+        if back == 0 || back > earlier as u64 {
             return Err(format!(
-                "a cell refers {back} cells back, but {} cells precede it in its block",
-                earlier.len()
+                "a cell refers {back} cells back, but {earlier} cells precede it in its block"
             ));
         }
-        Some(&earlier[earlier.len() - back as usize])
+        back as usize
     } else {
-        None
+        0
     };
     let left = (bytes.len() - *pos) as u64;
     let per_item = if mode < 2 { 1 } else { 2 };
@@ -202,7 +201,7 @@ pub fn decode_cell(
             "a cell claims {count} list items but only {left} bytes are left in the block"
         ));
     }
-    scratch.clear();
+    list.clear();
     let mut next = 0u64;
     for _ in 0..count {
         let overflow = || format!("object rank out of range (the file has {n} objects)");
@@ -217,14 +216,75 @@ pub fn decode_cell(
                 "object rank {last} is out of range (the file has {n} objects)"
             ));
         }
-        scratch.extend(start as u32..=last as u32);
+        list.extend(start as u32..=last as u32);
         next = last + if mode < 2 { 1 } else { 2 };
     }
-    match reference {
-        None => std::mem::swap(set, scratch),
-        Some(r) => symmetric_difference(r, scratch, set),
+    Ok((mode, back))
+}
+
+/// The sets of one block's cells as bitsets over the ranks, so that memory
+/// is bounded by cells per block x objects / 8 whatever the lists hold.
+pub struct BlockSets {
+    words: usize,
+    bits: Vec<u64>,
+    cells: usize,
+}
+
+impl BlockSets {
+    pub fn new(n: u32) -> Self {
+        BlockSets {
+            words: (n as usize).div_ceil(64),
+            bits: Vec::new(),
+            cells: 0,
+        }
     }
-    Ok(mode)
+    /// Forget the block's cells.
+    pub fn clear(&mut self) {
+        self.cells = 0;
+    }
+    /// How many cells of the block are decoded.
+    pub fn len(&self) -> usize {
+        self.cells
+    }
+    pub fn is_empty(&self) -> bool {
+        self.cells == 0
+    }
+    /// Decode the next cell of the block; its set (ascending ranks) goes to `set`.
+    pub fn decode_next(
+        &mut self,
+        bytes: &[u8],
+        pos: &mut usize,
+        n: u32,
+        list: &mut Vec<u32>,
+        set: &mut Vec<u32>,
+    ) -> Result<u8, String> {
+        let (mode, back) = decode_list(bytes, pos, n, self.cells, list)?;
+        let w = self.words;
+        let at = self.cells * w;
+        if self.bits.len() < at + w {
+            self.bits.resize(at + w, 0);
+        }
+        if back == 0 {
+            self.bits[at..at + w].fill(0);
+        } else {
+            let from = (self.cells - back) * w;
+            self.bits.copy_within(from..from + w, at);
+        }
+        let row = &mut self.bits[at..at + w];
+        for &r in list.iter() {
+            row[r as usize / 64] ^= 1 << (r % 64);
+        }
+        set.clear();
+        for (k, &word) in row.iter().enumerate() {
+            let mut word = word;
+            while word != 0 {
+                set.push((k * 64) as u32 + word.trailing_zeros());
+                word &= word - 1;
+            }
+        }
+        self.cells += 1;
+        Ok(mode)
+    }
 }
 
 #[cfg(test)]
@@ -274,25 +334,21 @@ mod tests {
             for k in 0..sets.len() {
                 encode_cell(&sets[..k], &sets[k], &mut diff, &mut out);
             }
-            let (mut pos, mut decoded, mut a) = (0, Vec::new(), Vec::new());
+            let (mut pos, mut block, mut a, mut set) = (0, BlockSets::new(n), Vec::new(), Vec::new());
             for s in &sets {
-                let mut set = Vec::new();
-                decode_cell(&out, &mut pos, n, &decoded, &mut set, &mut a).unwrap();
+                block.decode_next(&out, &mut pos, n, &mut a, &mut set).unwrap();
                 prop_assert_eq!(&set, s);
-                decoded.push(set);
             }
             prop_assert_eq!(pos, out.len());
         }
 
         #[test]
         fn arbitrary_bytes_never_panic(n in 0u32..100, bytes in proptest::collection::vec(any::<u8>(), 0..60)) {
-            let (mut pos, mut decoded, mut a) = (0, Vec::new(), Vec::new());
-            while pos < bytes.len() {
-                let mut set = Vec::new();
-                if decode_cell(&bytes, &mut pos, n, &decoded, &mut set, &mut a).is_err() {
+            let (mut pos, mut block, mut a, mut set) = (0, BlockSets::new(n), Vec::new(), Vec::new());
+            while pos < bytes.len() && block.len() < 64 {
+                if block.decode_next(&bytes, &mut pos, n, &mut a, &mut set).is_err() {
                     break;
                 }
-                decoded.push(set.clone());
                 prop_assert!(set.windows(2).all(|w| w[0] < w[1]));
                 prop_assert!(set.iter().all(|&i| i < n));
             }

@@ -142,7 +142,7 @@ pub const HEADER_BYTES: usize = 232;
 /// [`MAX_BLOCK_CELLS`]).
 pub const BLOCK_CELLS: u32 = 64;
 /// The largest block a reader accepts.
-pub const MAX_BLOCK_CELLS: u32 = 4096;
+pub const MAX_BLOCK_CELLS: u32 = 256;
 /// The sections after the header, in file order.
 pub const SECTION_NAMES: [&str; 6] = [
     "strings",

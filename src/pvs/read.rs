@@ -10,7 +10,7 @@ use std::path::Path;
 use glam::DVec2;
 use sha2::{Digest, Sha256};
 
-use super::blocks::{decode_cell, read_varint};
+use super::blocks::{BlockSets, read_varint};
 use super::grid::CellGrid;
 use super::{BakeInfo, FORMAT_VERSION, HEADER_BYTES, MAGIC, MAX_BLOCK_CELLS, SECTION_NAMES};
 use crate::frame::Frame;
@@ -227,24 +227,26 @@ impl PvsReader {
         out.sort_unstable();
     }
     /// Decode the cells of block `b` up to and including `last` (index in
-    /// the block), calling `f(cell, ranks, mode)` for each.
+    /// the block), calling `f(cell, ranks, mode)` for each; `state` is
+    /// reused between blocks.
     fn decode_block(
         &self,
         b: usize,
         last: usize,
+        state: &mut BlockSets,
         mut f: impl FnMut(usize, &[u32], u8) -> Result<()>,
     ) -> Result<()> {
         let bytes = self.block(b);
         let n = self.object_ids.len() as u32;
         let first = b * self.block_cells;
-        let (mut pos, mut earlier, mut scratch) = (0, Vec::new(), Vec::new());
+        state.clear();
+        let (mut pos, mut list, mut set) = (0, Vec::new(), Vec::new());
         for k in 0..=last {
             let cell = first + k;
-            let mut set = Vec::new();
-            let mode = decode_cell(bytes, &mut pos, n, &earlier, &mut set, &mut scratch)
+            let mode = state
+                .decode_next(bytes, &mut pos, n, &mut list, &mut set)
                 .map_err(|e| Error::new(format!("visible set of cell {cell}: {e}")))?;
             f(cell, &set, mode)?;
-            earlier.push(set);
         }
         let whole = first + last + 1 == self.cell_count() || last + 1 == self.block_cells;
         if whole && pos != bytes.len() {
@@ -261,7 +263,8 @@ impl PvsReader {
         self.check_cell(cell)?;
         let b = cell / self.block_cells;
         let mut out = Vec::new();
-        self.decode_block(b, cell % self.block_cells, |c, ranks, _| {
+        let mut state = BlockSets::new(self.object_ids.len() as u32);
+        self.decode_block(b, cell % self.block_cells, &mut state, |c, ranks, _| {
             if c == cell {
                 self.to_input(ranks, &mut out);
             }
@@ -289,10 +292,11 @@ impl PvsReader {
         mut f: impl FnMut(usize, &[u32], u8) -> Result<()>,
     ) -> Result<()> {
         let mut out = Vec::new();
+        let mut state = BlockSets::new(self.object_ids.len() as u32);
         let blocks = self.cell_count().div_ceil(self.block_cells);
         for b in 0..blocks {
             let last = (self.cell_count() - b * self.block_cells).min(self.block_cells) - 1;
-            self.decode_block(b, last, |c, ranks, mode| {
+            self.decode_block(b, last, &mut state, |c, ranks, mode| {
                 self.to_input(ranks, &mut out);
                 f(c, &out, mode)
             })?;
