@@ -50,7 +50,8 @@ fn fail(code: i32, message: &str) -> i32 {
 }
 
 fn guard(f: impl FnOnce() -> i32) -> i32 {
-    catch_unwind(AssertUnwindSafe(f)).unwrap_or_else(|_| fail(CITYPVS_ERR_INTERNAL, "internal error"))
+    catch_unwind(AssertUnwindSafe(f))
+        .unwrap_or_else(|_| fail(CITYPVS_ERR_INTERNAL, "internal error"))
 }
 
 /// The message of the last failed call on this thread ("" if none). Valid
@@ -68,7 +69,14 @@ fn store(out: *mut *mut CitypvsReader, result: crate::Result<PvsReader>, io: boo
             unsafe { *out = Box::into_raw(boxed) };
             CITYPVS_OK
         }
-        Err(e) => fail(if io { CITYPVS_ERR_IO } else { CITYPVS_ERR_FORMAT }, e.message()),
+        Err(e) => fail(
+            if io {
+                CITYPVS_ERR_IO
+            } else {
+                CITYPVS_ERR_FORMAT
+            },
+            e.message(),
+        ),
     }
 }
 
@@ -78,7 +86,10 @@ fn store(out: *mut *mut CitypvsReader, result: crate::Result<PvsReader>, io: boo
 /// # Safety
 /// `path` must be a NUL-terminated string and `out` a valid pointer.
 #[unsafe(no_mangle)]
-pub unsafe extern "C" fn citypvs_open_path(path: *const c_char, out: *mut *mut CitypvsReader) -> i32 {
+pub unsafe extern "C" fn citypvs_open_path(
+    path: *const c_char,
+    out: *mut *mut CitypvsReader,
+) -> i32 {
     guard(|| {
         if path.is_null() || out.is_null() {
             return fail(CITYPVS_ERR_ARGUMENT, "null path or output pointer");
@@ -92,7 +103,11 @@ pub unsafe extern "C" fn citypvs_open_path(path: *const c_char, out: *mut *mut C
             Ok(b) => b,
             Err(e) => return fail(CITYPVS_ERR_IO, &format!("{path}: cannot read: {e}")),
         };
-        store(out, PvsReader::from_bytes(bytes).map_err(|e| e.context(path)), false)
+        store(
+            out,
+            PvsReader::from_bytes(bytes).map_err(|e| e.context(path)),
+            false,
+        )
     })
 }
 
@@ -183,7 +198,10 @@ pub unsafe extern "C" fn citypvs_object_id(
         let Some(id) = r.object_ids().get(object as usize) else {
             return fail(
                 CITYPVS_ERR_ARGUMENT,
-                &format!("object {object} does not exist (the file has {})", r.object_ids().len()),
+                &format!(
+                    "object {object} does not exist (the file has {})",
+                    r.object_ids().len()
+                ),
             );
         };
         // SAFETY: checked non-null.
@@ -276,7 +294,10 @@ pub unsafe extern "C" fn citypvs_visible(
         if cell as usize >= r.cell_count() {
             return fail(
                 CITYPVS_ERR_ARGUMENT,
-                &format!("cell {cell} does not exist (the file has {} cells)", r.cell_count()),
+                &format!(
+                    "cell {cell} does not exist (the file has {} cells)",
+                    r.cell_count()
+                ),
             );
         }
         let set = match r.visible(cell as usize) {
@@ -286,7 +307,10 @@ pub unsafe extern "C" fn citypvs_visible(
         // SAFETY: checked non-null.
         unsafe { *count = set.len() };
         if buf.is_null() || cap < set.len() {
-            return fail(CITYPVS_ERR_BUFFER_TOO_SMALL, "buffer too small for the visible set");
+            return fail(
+                CITYPVS_ERR_BUFFER_TOO_SMALL,
+                "buffer too small for the visible set",
+            );
         }
         // SAFETY: `cap >= set.len()` writable entries.
         unsafe { std::ptr::copy_nonoverlapping(set.as_ptr(), buf, set.len()) };

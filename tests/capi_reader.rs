@@ -34,10 +34,20 @@ fn c_program_reads_a_baked_file() {
     let bin = env!("CARGO_BIN_EXE_citypvs");
     let city = dir.path().join("city.geojson");
     let pvs = dir.path().join("city.pvs");
-    run(Command::new(bin).args(["generate", "--buildings", "40", "--seed", "3", "-o"]).arg(&city));
-    run(Command::new(bin).arg("bake").arg(&city).arg("-o").arg(&pvs).args(["-q", "--threads", "1"]));
-    let inspect: serde_json::Value =
-        serde_json::from_str(&run(Command::new(bin).arg("inspect").arg(&pvs).arg("--json"))).unwrap();
+    run(Command::new(bin)
+        .args(["generate", "--buildings", "40", "--seed", "3", "-o"])
+        .arg(&city));
+    run(Command::new(bin)
+        .arg("bake")
+        .arg(&city)
+        .arg("-o")
+        .arg(&pvs)
+        .args(["-q", "--threads", "1"]));
+    let inspect: serde_json::Value = serde_json::from_str(&run(Command::new(bin)
+        .arg("inspect")
+        .arg(&pvs)
+        .arg("--json")))
+    .unwrap();
 
     // Points in the input frame: each cell's centroid.
     let reader = PvsReader::open(&pvs).unwrap();
@@ -88,9 +98,15 @@ fn c_program_reads_a_baked_file() {
         assert_eq!(words.next(), Some("cell"));
         assert_eq!(words.next(), Some(c.to_string().as_str()));
         let count: usize = words.next().unwrap().parse().unwrap();
-        let visible: Vec<&str> = words.map(|w| ids[w.parse::<usize>().unwrap()].as_str()).collect();
-        let expected: Vec<&str> =
-            cell["visible"].as_array().unwrap().iter().map(|v| v.as_str().unwrap()).collect();
+        let visible: Vec<&str> = words
+            .map(|w| ids[w.parse::<usize>().unwrap()].as_str())
+            .collect();
+        let expected: Vec<&str> = cell["visible"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_str().unwrap())
+            .collect();
         assert_eq!(count, expected.len());
         assert_eq!(visible, expected, "cell {c}");
     }

@@ -418,7 +418,8 @@ fn a_bad_block_fails_only_its_own_cells() {
     let block = 1;
     let start = blocks + u64_at(index + 8 * block);
     let mut bad = bytes[..bytes.len() - 32].to_vec();
-    bad[start..start + 10].copy_from_slice(&[0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0x7f]);
+    bad[start..start + 10]
+        .copy_from_slice(&[0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0x7f]);
     let digest = Sha256::digest(&bad);
     bad.extend_from_slice(&digest);
     let reader = PvsReader::from_bytes(bad).unwrap();

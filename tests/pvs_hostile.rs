@@ -103,9 +103,21 @@ fn baked() -> &'static [Vec<u8>] {
                 let pvs = dir.path().join(format!("c{seed}.pvs"));
                 let ok = |c: &mut Command| assert!(c.status().unwrap().success());
                 ok(Command::new(bin)
-                    .args(["generate", "--buildings", &buildings.to_string(), "--seed", &seed.to_string(), "-o"])
+                    .args([
+                        "generate",
+                        "--buildings",
+                        &buildings.to_string(),
+                        "--seed",
+                        &seed.to_string(),
+                        "-o",
+                    ])
                     .arg(&city));
-                ok(Command::new(bin).arg("bake").arg(&city).arg("-o").arg(&pvs).args(["-q", "--threads", "1"]));
+                ok(Command::new(bin)
+                    .arg("bake")
+                    .arg(&city)
+                    .arg("-o")
+                    .arg(&pvs)
+                    .args(["-q", "--threads", "1"]));
                 std::fs::read(&pvs).unwrap()
             })
             .collect()
@@ -145,7 +157,13 @@ fn mutation() -> impl Strategy<Value = Mutation> {
 
 fn apply(mut bytes: Vec<u8>, m: &Mutation) -> Vec<u8> {
     // Target the header and the first sections more often: that is where the sizes live.
-    let pick = |a: usize, len: usize| if a % 3 == 0 { a / 3 % len.min(400) } else { a / 3 % len };
+    let pick = |a: usize, len: usize| {
+        if a % 3 == 0 {
+            a / 3 % len.min(400)
+        } else {
+            a / 3 % len
+        }
+    };
     let body = bytes.len() - 32;
     match m {
         Mutation::Byte(a, b) => {
@@ -258,11 +276,12 @@ fn crafted_212_byte_version_1_file() {
 /// are refused before anything is allocated.
 #[test]
 fn crafted_version_2_counts_are_refused() {
-    let mut w = PvsWriter::new(info(), vec!["a".into()], vec![DVec2::ZERO], vec![[
-        DVec2::ZERO,
-        DVec2::X,
-        DVec2::Y,
-    ]])
+    let mut w = PvsWriter::new(
+        info(),
+        vec!["a".into()],
+        vec![DVec2::ZERO],
+        vec![[DVec2::ZERO, DVec2::X, DVec2::Y]],
+    )
     .unwrap();
     w.push_cell(&[0]).unwrap();
     let good = w.finish().unwrap().0;
@@ -293,7 +312,11 @@ fn inspect_streams_sets_that_expand_to_every_object() {
     let tris: Vec<[DVec2; 3]> = (0..cells)
         .map(|c| {
             let x = c as f64;
-            [DVec2::new(x, 0.0), DVec2::new(x + 1.0, 0.0), DVec2::new(x, 1.0)]
+            [
+                DVec2::new(x, 0.0),
+                DVec2::new(x + 1.0, 0.0),
+                DVec2::new(x, 1.0),
+            ]
         })
         .collect();
     let mut w = PvsWriter::new(info(), ids, points, tris).unwrap();
@@ -303,7 +326,11 @@ fn inspect_streams_sets_that_expand_to_every_object() {
     }
     let bytes = w.finish().unwrap().0;
     let held = cells * objects * 4;
-    assert!(bytes.len() * 100 < held, "the file ({}) is much smaller than the sets ({held})", bytes.len());
+    assert!(
+        bytes.len() * 100 < held,
+        "the file ({}) is much smaller than the sets ({held})",
+        bytes.len()
+    );
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("all.pvs");
     std::fs::write(&path, &bytes).unwrap();
@@ -314,7 +341,10 @@ fn inspect_streams_sets_that_expand_to_every_object() {
     };
     let (code, peak) = peak_during(|| citypvs::cli::inspect::run(&args).unwrap());
     assert_eq!(code, 0);
-    assert!(peak <= cap(bytes.len()) + 4 * objects * 70, "inspect peak {peak}");
+    assert!(
+        peak <= cap(bytes.len()) + 4 * objects * 70,
+        "inspect peak {peak}"
+    );
     assert!(peak < held / 100);
 }
 

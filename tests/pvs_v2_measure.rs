@@ -12,7 +12,11 @@ use citypvs::pvs::v1::read_v1;
 use citypvs::pvs::{PvsData, PvsReader, PvsWriter, points_from_sets};
 use glam::DVec2;
 
-fn encode(data: &PvsData, points: &[DVec2], block: u32) -> (Vec<u8>, citypvs::pvs::WriteStats, [u64; 4]) {
+fn encode(
+    data: &PvsData,
+    points: &[DVec2],
+    block: u32,
+) -> (Vec<u8>, citypvs::pvs::WriteStats, [u64; 4]) {
     let mut w = PvsWriter::with_block_cells(
         data.info.clone(),
         data.object_ids.clone(),
@@ -47,7 +51,10 @@ fn convert_and_measure() {
         raw.len()
     );
     let mut numberings: Vec<(&str, Vec<DVec2>)> = vec![
-        ("input order", (0..n).map(|i| DVec2::new(i as f64, 0.0)).collect()),
+        (
+            "input order",
+            (0..n).map(|i| DVec2::new(i as f64, 0.0)).collect(),
+        ),
         ("from sets", points_from_sets(&data)),
     ];
     if let Ok(city) = std::env::var("CITYPVS_CITY") {
@@ -62,7 +69,10 @@ fn convert_and_measure() {
             .collect();
         numberings.push((
             "footprint centres",
-            data.object_ids.iter().map(|id| by_id[id.as_str()]).collect(),
+            data.object_ids
+                .iter()
+                .map(|id| by_id[id.as_str()])
+                .collect(),
         ));
     }
     let mut best: Option<(usize, Vec<u8>)> = None;
@@ -79,7 +89,9 @@ fn convert_and_measure() {
                 stats.raw_bitset_bytes as f64 / bytes.len() as f64,
                 stats.rle_bitset_bytes
             );
-            if block == citypvs::pvs::BLOCK_CELLS && best.as_ref().is_none_or(|(l, _)| bytes.len() < *l) {
+            if block == citypvs::pvs::BLOCK_CELLS
+                && best.as_ref().is_none_or(|(l, _)| bytes.len() < *l)
+            {
                 best = Some((bytes.len(), bytes));
             }
         }

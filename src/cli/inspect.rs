@@ -87,7 +87,6 @@ struct CellJson<'a> {
     visible: Vec<&'a str>,
 }
 
-
 fn ratio(a: f64, b: f64) -> f64 {
     if b > 0.0 { a / b } else { 0.0 }
 }
@@ -260,7 +259,12 @@ pub fn escape_controls(s: &str) -> std::borrow::Cow<'_, str> {
     std::borrow::Cow::Owned(out)
 }
 
-fn print_text(out: &mut dyn std::io::Write, file: &str, h: &HeaderJson, s: &StatsJson) -> Result<()> {
+fn print_text(
+    out: &mut dyn std::io::Write,
+    file: &str,
+    h: &HeaderJson,
+    s: &StatsJson,
+) -> Result<()> {
     let e = escape_controls;
     let mut text = String::new();
     use std::fmt::Write as _;
@@ -275,7 +279,9 @@ fn print_text(out: &mut dyn std::io::Write, file: &str, h: &HeaderJson, s: &Stat
     let _ = writeln!(
         text,
         "region:       {}",
-        h.region_sha256.as_deref().map_or("none".to_string(), |r| format!("sha256 {r}"))
+        h.region_sha256
+            .as_deref()
+            .map_or("none".to_string(), |r| format!("sha256 {r}"))
     );
     let _ = writeln!(text, "frame:        {}", e(&h.frame_description));
     let _ = writeln!(

@@ -99,10 +99,7 @@ fn open_pvs(path: &Path, scene: &Scene, args: &RenderArgs) -> Result<PvsReader> 
         .object_ids()
         .iter()
         .eq(scene.city.buildings.iter().map(|b| &b.id));
-    if !ids_match
-        || info.eps != scene.eps
-        || reader.cell_triangles() != scene.cells.triangles
-    {
+    if !ids_match || info.eps != scene.eps || reader.cell_triangles() != scene.cells.triangles {
         return Err(Error::new(format!(
             "{}: its {} cells and {} objects (eps {}) are not the {} cells and {} buildings (eps {}) \
              prepared here; it was baked with --eps {} --max-cell-edge {} --margin {}: pass the same scene options \

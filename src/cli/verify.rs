@@ -117,7 +117,10 @@ fn run_in_pool(args: &VerifyArgs, threads: usize) -> Result<i32> {
     let mut visible = Vec::with_capacity(reader.cell_count());
     reader
         .for_each_visible(|_, set| {
-            let mut set: Vec<u32> = set.iter().map(|&o| object_to_building[o as usize]).collect();
+            let mut set: Vec<u32> = set
+                .iter()
+                .map(|&o| object_to_building[o as usize])
+                .collect();
             set.sort_unstable();
             visible.push(set);
             Ok(())

@@ -123,7 +123,12 @@ fn put_runs(out: &mut Vec<u8>, list: &[u32]) {
 /// the shortest coding (the set itself, or its difference from one earlier
 /// cell, each as gaps or runs; ties: lowest mode, then nearest cell) and
 /// returns the mode.
-pub fn encode_cell(earlier: &[Vec<u32>], cur: &[u32], diff: &mut Vec<u32>, out: &mut Vec<u8>) -> u8 {
+pub fn encode_cell(
+    earlier: &[Vec<u32>],
+    cur: &[u32],
+    diff: &mut Vec<u32>,
+    out: &mut Vec<u8>,
+) -> u8 {
     // (bytes, mode, back) of the best coding so far.
     let cost = |count: u64, bytes: usize, back: usize| {
         varint_len(count << 2) + bytes + if back > 0 { varint_len(back as u64) } else { 0 }
@@ -131,7 +136,11 @@ pub fn encode_cell(earlier: &[Vec<u32>], cur: &[u32], diff: &mut Vec<u32>, out: 
     let mut best = {
         let (g, r) = (gaps_size(cur), runs_size(cur));
         let (cg, cr) = (cost(g.0, g.1, 0), cost(r.0, r.1, 0));
-        if cr < cg { (cr, MODE_SET_RUNS, 0) } else { (cg, MODE_SET_GAPS, 0) }
+        if cr < cg {
+            (cr, MODE_SET_RUNS, 0)
+        } else {
+            (cg, MODE_SET_GAPS, 0)
+        }
     };
     for back in 1..=earlier.len() {
         let prev = &earlier[earlier.len() - back];
@@ -155,7 +164,11 @@ pub fn encode_cell(earlier: &[Vec<u32>], cur: &[u32], diff: &mut Vec<u32>, out: 
         symmetric_difference(&earlier[earlier.len() - back], cur, diff);
         diff
     };
-    let count = if mode < 2 { gaps_size(list).0 } else { runs_size(list).0 };
+    let count = if mode < 2 {
+        gaps_size(list).0
+    } else {
+        runs_size(list).0
+    };
     write_leb128(out, (count << 2) | u64::from(mode));
     if back > 0 {
         write_leb128(out, back as u64);
@@ -205,7 +218,9 @@ pub fn decode_list(
     let mut next = 0u64;
     for _ in 0..count {
         let overflow = || format!("object rank out of range (the file has {n} objects)");
-        let start = next.checked_add(read_varint(bytes, pos)?).ok_or_else(overflow)?;
+        let start = next
+            .checked_add(read_varint(bytes, pos)?)
+            .ok_or_else(overflow)?;
         let last = if mode < 2 {
             start
         } else {
@@ -294,7 +309,16 @@ mod tests {
 
     #[test]
     fn varint_lengths() {
-        for v in [0u64, 1, 127, 128, 16383, 16384, u64::from(u32::MAX), u64::MAX] {
+        for v in [
+            0u64,
+            1,
+            127,
+            128,
+            16383,
+            16384,
+            u64::from(u32::MAX),
+            u64::MAX,
+        ] {
             let mut out = Vec::new();
             write_leb128(&mut out, v);
             assert_eq!(out.len(), varint_len(v), "{v}");
@@ -304,7 +328,13 @@ mod tests {
         let mut pos = 0;
         assert!(read_varint(&[0xff; 10], &mut pos).is_err());
         let mut pos = 0;
-        assert!(read_varint(&[0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0x02], &mut pos).is_err());
+        assert!(
+            read_varint(
+                &[0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0x02],
+                &mut pos
+            )
+            .is_err()
+        );
     }
 
     #[test]
@@ -312,11 +342,17 @@ mod tests {
         // {1, 2, 3, 10} after {1, 2, 3}: difference {10} as gaps: head 1<<2|1, gap 10.
         let mut out = Vec::new();
         let mut diff = Vec::new();
-        assert_eq!(encode_cell(&[vec![1, 2, 3]], &[1, 2, 3, 10], &mut diff, &mut out), MODE_DIFF_GAPS);
+        assert_eq!(
+            encode_cell(&[vec![1, 2, 3]], &[1, 2, 3, 10], &mut diff, &mut out),
+            MODE_DIFF_GAPS
+        );
         assert_eq!(out, [0x05, 1, 10]);
         // {1, 2, 3} from nothing: one run as (gap 1, length-1 2), head 1<<2|2.
         out.clear();
-        assert_eq!(encode_cell(&[], &[1, 2, 3], &mut diff, &mut out), MODE_SET_RUNS);
+        assert_eq!(
+            encode_cell(&[], &[1, 2, 3], &mut diff, &mut out),
+            MODE_SET_RUNS
+        );
         assert_eq!(out, [0x06, 1, 2]);
     }
 

@@ -148,9 +148,7 @@ impl PvsReader {
         let parsed = parse(&bytes[..body])?;
         let corners = &parsed.corners;
         let vertices = &parsed.vertices;
-        let grid = CellGrid::new(corners.len(), |c| {
-            corners[c].map(|v| vertices[v as usize])
-        });
+        let grid = CellGrid::new(corners.len(), |c| corners[c].map(|v| vertices[v as usize]));
         Ok(PvsReader {
             info: parsed.info,
             object_ids: parsed.object_ids,
@@ -188,7 +186,9 @@ impl PvsReader {
     }
     /// All cell triangles in local metres (built on each call).
     pub fn cell_triangles(&self) -> Vec<[DVec2; 3]> {
-        (0..self.cell_count()).map(|c| self.cell_triangle(c)).collect()
+        (0..self.cell_count())
+            .map(|c| self.cell_triangle(c))
+            .collect()
     }
     /// The cell containing the point (local metres), if any. A point on an
     /// edge shared by two cells goes to the lower-numbered one.
@@ -209,7 +209,8 @@ impl PvsReader {
     }
     /// The bytes of block `b`.
     fn block(&self, b: usize) -> &[u8] {
-        &self.bytes[self.blocks_at + self.block_offset(b)..self.blocks_at + self.block_offset(b + 1)]
+        &self.bytes
+            [self.blocks_at + self.block_offset(b)..self.blocks_at + self.block_offset(b + 1)]
     }
     fn check_cell(&self, cell: usize) -> Result<()> {
         if cell >= self.cell_count() {
@@ -453,7 +454,9 @@ fn parse(body: &[u8]) -> Result<Parsed> {
     for k in 0..vertex_count {
         let p = DVec2::new(v.f64("vertex")?, v.f64("vertex")?);
         if !p.is_finite() {
-            return Err(Error::new(format!("vertex {k} has a non-finite coordinate")));
+            return Err(Error::new(format!(
+                "vertex {k} has a non-finite coordinate"
+            )));
         }
         vertices.push(p);
     }

@@ -4,7 +4,6 @@
 //! version 1 did not store (near field, minimum gap, region hash) come back
 //! as 0 / zeros.
 
-
 use glam::DVec2;
 use sha2::{Digest, Sha256};
 
@@ -93,7 +92,10 @@ pub fn read_v1(bytes: &[u8]) -> Result<PvsData> {
     if Sha256::digest(&bytes[..body]).as_slice() != &bytes[body..] {
         return Err(Error::new("checksum mismatch"));
     }
-    let c = &mut Cursor { bytes: &bytes[..body], pos: c.pos };
+    let c = &mut Cursor {
+        bytes: &bytes[..body],
+        pos: c.pos,
+    };
     let (info, object_ids, cells, ranges) = parse_body(c, body)?;
     let visible = (0..cells.len())
         .map(|k| {

@@ -154,8 +154,8 @@ impl PvsWriter {
                 }
             }
         }
-        let vertex_count = u32::try_from(vertices.len())
-            .map_err(|_| Error::new("more than 2^32 - 1 vertices"))?;
+        let vertex_count =
+            u32::try_from(vertices.len()).map_err(|_| Error::new("more than 2^32 - 1 vertices"))?;
 
         let mut strings = Vec::new();
         put_str(&mut strings, &info.tool_version);
@@ -343,7 +343,13 @@ pub fn points_from_sets(data: &PvsData) -> Vec<DVec2> {
     }
     sum.iter()
         .zip(&count)
-        .map(|(s, &k)| if k > 0 { *s / f64::from(k) } else { DVec2::ZERO })
+        .map(|(s, &k)| {
+            if k > 0 {
+                *s / f64::from(k)
+            } else {
+                DVec2::ZERO
+            }
+        })
         .collect()
 }
 
@@ -354,10 +360,7 @@ pub fn encode_pvs(data: &PvsData) -> Result<(Vec<u8>, WriteStats)> {
 }
 
 /// Like [`encode_pvs`] with one representative point per object given.
-pub fn encode_pvs_with_points(
-    data: &PvsData,
-    points: Vec<DVec2>,
-) -> Result<(Vec<u8>, WriteStats)> {
+pub fn encode_pvs_with_points(data: &PvsData, points: Vec<DVec2>) -> Result<(Vec<u8>, WriteStats)> {
     if data.visible.len() != data.cells.len() {
         return Err(Error::new(format!(
             "{} cells but {} visible sets",
@@ -385,7 +388,11 @@ pub fn write_pvs(path: &Path, data: &PvsData) -> Result<WriteStats> {
 }
 
 /// Like [`write_pvs`] with one representative point per object given.
-pub fn write_pvs_with_points(path: &Path, data: &PvsData, points: Vec<DVec2>) -> Result<WriteStats> {
+pub fn write_pvs_with_points(
+    path: &Path,
+    data: &PvsData,
+    points: Vec<DVec2>,
+) -> Result<WriteStats> {
     let (bytes, stats) =
         encode_pvs_with_points(data, points).map_err(|e| e.context(path.display()))?;
     crate::atomic::write_atomically(path, &bytes)?;
