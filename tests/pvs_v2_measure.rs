@@ -75,9 +75,16 @@ fn convert_and_measure() {
                 .collect(),
         ));
     }
+    // CITYPVS_BLOCKS=16,64 and CITYPVS_NUMBERINGS=footprint limit the runs.
+    let blocks: Vec<u32> = std::env::var("CITYPVS_BLOCKS")
+        .map(|v| v.split(',').map(|b| b.parse().unwrap()).collect())
+        .unwrap_or_else(|_| vec![1, 8, 16, 32, 64, 128]);
+    if let Ok(keep) = std::env::var("CITYPVS_NUMBERINGS") {
+        numberings.retain(|(name, _)| keep.split(',').any(|k| name.starts_with(k)));
+    }
     let mut best: Option<(usize, Vec<u8>)> = None;
     for (name, points) in &numberings {
-        for block in [1u32, 8, 16, 32, 64, 128] {
+        for &block in &blocks {
             let (bytes, stats, modes) = encode(&data, points, block);
             println!(
                 "  {name:18} block {block:4}: file {:9} (objects {}, mesh {}, blocks {}), raw {} ({:.1}x), quake {}, modes {modes:?}",

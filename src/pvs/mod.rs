@@ -141,7 +141,7 @@ pub const FORMAT_VERSION: u32 = 2;
 pub const HEADER_BYTES: usize = 232;
 /// Cells per block as the writer makes them (the reader accepts 1 to
 /// [`MAX_BLOCK_CELLS`]).
-pub const BLOCK_CELLS: u32 = 64;
+pub const BLOCK_CELLS: u32 = 128;
 /// The largest block a reader accepts.
 pub const MAX_BLOCK_CELLS: u32 = 256;
 /// The sections after the header, in file order.

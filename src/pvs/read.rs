@@ -221,11 +221,31 @@ impl PvsReader {
         }
         Ok(())
     }
-    /// Map ascending spatial ranks to ascending input indices in `out`.
-    fn to_input(&self, ranks: &[u32], out: &mut Vec<u32>) {
+    /// Map ascending spatial ranks to ascending input indices in `out`,
+    /// through the bitset `marks` (kept all zero between calls).
+    fn to_input(&self, ranks: &[u32], marks: &mut Vec<u64>, out: &mut Vec<u32>) {
         out.clear();
-        out.extend(ranks.iter().map(|&r| self.input_of_rank[r as usize]));
-        out.sort_unstable();
+        let words = self.object_ids.len().div_ceil(64);
+        if marks.len() != words {
+            marks.clear();
+            marks.resize(words, 0);
+        }
+        if ranks.len() < words {
+            out.extend(ranks.iter().map(|&r| self.input_of_rank[r as usize]));
+            out.sort_unstable();
+            return;
+        }
+        for &r in ranks {
+            let i = self.input_of_rank[r as usize];
+            marks[i as usize / 64] |= 1 << (i % 64);
+        }
+        for (k, word) in marks.iter_mut().enumerate() {
+            let mut w = std::mem::take(word);
+            while w != 0 {
+                out.push((k * 64) as u32 + w.trailing_zeros());
+                w &= w - 1;
+            }
+        }
     }
     /// Decode the cells of block `b` up to and including `last` (index in
     /// the block), calling `f(cell, ranks, mode)` for each; `state` is
@@ -263,11 +283,11 @@ impl PvsReader {
     pub fn visible(&self, cell: usize) -> Result<Vec<u32>> {
         self.check_cell(cell)?;
         let b = cell / self.block_cells;
-        let mut out = Vec::new();
+        let (mut out, mut marks) = (Vec::new(), Vec::new());
         let mut state = BlockSets::new(self.object_ids.len() as u32);
         self.decode_block(b, cell % self.block_cells, &mut state, |c, ranks, _| {
             if c == cell {
-                self.to_input(ranks, &mut out);
+                self.to_input(ranks, &mut marks, &mut out);
             }
             Ok(())
         })?;
@@ -292,13 +312,13 @@ impl PvsReader {
         &self,
         mut f: impl FnMut(usize, &[u32], u8) -> Result<()>,
     ) -> Result<()> {
-        let mut out = Vec::new();
+        let (mut out, mut marks) = (Vec::new(), Vec::new());
         let mut state = BlockSets::new(self.object_ids.len() as u32);
         let blocks = self.cell_count().div_ceil(self.block_cells);
         for b in 0..blocks {
             let last = (self.cell_count() - b * self.block_cells).min(self.block_cells) - 1;
             self.decode_block(b, last, &mut state, |c, ranks, mode| {
-                self.to_input(ranks, &mut out);
+                self.to_input(ranks, &mut marks, &mut out);
                 f(c, &out, mode)
             })?;
         }
