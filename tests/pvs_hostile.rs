@@ -158,7 +158,7 @@ fn mutation() -> impl Strategy<Value = Mutation> {
 fn apply(mut bytes: Vec<u8>, m: &Mutation) -> Vec<u8> {
     // Target the header and the first sections more often: that is where the sizes live.
     let pick = |a: usize, len: usize| {
-        if a % 3 == 0 {
+        if a.is_multiple_of(3) {
             a / 3 % len.min(400)
         } else {
             a / 3 % len

@@ -19,7 +19,7 @@ pub const MODE_NAMES: [&str; 4] = ["set-gaps", "diff-gaps", "set-runs", "diff-ru
 
 /// Bytes of `v` as a LEB128 varint.
 pub fn varint_len(v: u64) -> usize {
-    ((64 - (v | 1).leading_zeros() as usize) + 6) / 7
+    (64 - (v | 1).leading_zeros() as usize).div_ceil(7)
 }
 
 /// Read a LEB128 varint of at most 10 bytes whose value fits in 64 bits.

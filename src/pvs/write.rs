@@ -281,7 +281,7 @@ impl PvsWriter {
         self.mode_counts[mode as usize] += 1;
         self.earlier.push(std::mem::take(&mut self.cur));
         self.pushed += 1;
-        if self.pushed % self.block_cells == 0 || self.pushed == self.cell_count {
+        if self.pushed.is_multiple_of(self.block_cells) || self.pushed == self.cell_count {
             self.out.extend_from_slice(&self.block);
             self.block.clear();
             self.earlier.clear();
