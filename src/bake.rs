@@ -72,8 +72,11 @@ pub fn bake_info(scene: &Scene) -> BakeInfo {
         pixel: s.pixel,
         max_cell_edge: s.max_cell_edge,
         margin: s.margin,
+        near_field: s.near_field,
+        min_gap: s.min_gap,
         frame: scene.city.frame.clone(),
         source_hash: scene.city.source_hash,
+        region_hash: s.region_hash(),
         tool_version: env!("CARGO_PKG_VERSION").to_string(),
     }
 }
@@ -87,8 +90,8 @@ pub fn settings_of(info: &BakeInfo, region: Option<crate::model::Polygon>) -> Re
         eye_height: Some(info.eye_height),
         max_cell_edge: Some(info.max_cell_edge),
         margin: Some(info.margin),
-        near_field: None,
-        min_gap: None,
+        near_field: Some(info.near_field),
+        min_gap: Some(info.min_gap),
         region,
     })
     .map_err(|e| crate::Error::format(format!("the file's header is not a valid bake: {e}")))
@@ -139,6 +142,21 @@ pub fn bake(
         visible,
     };
     Ok((data, stats, timing))
+}
+
+/// One representative point per object (the centre of its footprint's
+/// bounding box), for the file's spatial numbering of objects.
+pub fn object_points(scene: &Scene) -> Vec<glam::DVec2> {
+    scene
+        .city
+        .buildings
+        .iter()
+        .map(|b| {
+            let r = crate::model::multipolygon_bounds(&b.footprint);
+            let c = (r.min + r.max) / 2.0;
+            if c.is_finite() { c } else { glam::DVec2::ZERO }
+        })
+        .collect()
 }
 
 /// Peak resident memory of this process in bytes, where the OS tells it.

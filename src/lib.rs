@@ -17,27 +17,47 @@
 //! | bake | [`bake`] | runs visibility over a prepared scene and packages the PVS |
 //! | visibility | [`visibility`] | samples, cull maps, hierarchical horizon, per-cell PVS |
 //! | output | [`pvs`] | the `.pvs` file: format, compression, reading |
+//! | frames | [`frame`] | local metres to and from the input's coordinates |
 //! | judging | [`verify`] | independent dense point-sampling check of conservativeness |
 //! | test cities | [`generate`] | procedural cities |
 //! | pictures | [`render`] | PNG maps of cities, cells and PVS |
 //! | scale-out | [`scale`] | shards, merge, checkpoints and resume, diff of two `.pvs` files |
 //! | command line | [`cli`] | the `citypvs` subcommands |
+//!
+//! Reading `.pvs` files needs only [`pvs`], [`frame`], [`atomic`] and
+//! [`error`]: `cargo build --no-default-features` builds just those (the
+//! `bake` feature, on by default, brings the rest); the `capi` feature adds
+//! the C ABI reader [`capi`] (header `include/citypvs.h`).
 
 pub mod atomic;
+#[cfg(feature = "bake")]
 pub mod bake;
+#[cfg(feature = "capi")]
+pub mod capi;
+#[cfg(feature = "bake")]
 pub mod cells;
+#[cfg(feature = "bake")]
 pub mod cli;
 pub mod error;
+pub mod frame;
+#[cfg(feature = "bake")]
 pub mod generate;
+#[cfg(feature = "bake")]
 pub mod geometry;
+#[cfg(feature = "bake")]
 pub mod input;
 pub mod model;
+#[cfg(feature = "bake")]
 pub mod prepare;
 pub mod pvs;
+#[cfg(feature = "bake")]
 pub mod render;
+#[cfg(feature = "bake")]
 pub mod scale;
 pub mod settings;
+#[cfg(feature = "bake")]
 pub mod verify;
+#[cfg(feature = "bake")]
 pub mod visibility;
 
 pub use error::{Error, ErrorKind, Result};

@@ -14,8 +14,11 @@ fn info(frame: Frame) -> BakeInfo {
         pixel: 0.125,
         max_cell_edge: 20.0,
         margin: 30.0,
+        near_field: 0.0,
+        min_gap: 0.0,
         frame,
         source_hash: std::array::from_fn(|i| (i * 7 + 3) as u8),
+        region_hash: [0; 32],
         tool_version: "citypvs 0.1.0-test".into(),
     }
 }
@@ -337,13 +340,22 @@ fn bad_magic_and_version_are_named() {
             .contains("not a citypvs")
     );
     let mut bytes = sample_file();
-    bytes[8] = 2;
+    bytes[8] = 3;
     assert!(
         PvsReader::from_bytes(bytes)
             .err()
             .unwrap()
             .message()
-            .contains("version 2")
+            .contains("version 3")
+    );
+    let mut bytes = sample_file();
+    bytes[8] = 1;
+    assert!(
+        PvsReader::from_bytes(bytes)
+            .err()
+            .unwrap()
+            .message()
+            .contains("version 1 file: rebake with this citypvs")
     );
 }
 
@@ -384,12 +396,12 @@ fn structurally_corrupt_files_with_valid_checksums_never_panic() {
     assert!(errors > 100, "only {errors} corruptions detected");
 }
 
-/// Records are independent: a bad record (checksum repaired) fails only its own cell.
+/// Blocks are independent: a bad block (checksum repaired) fails only its own cells.
 #[test]
-fn a_bad_record_fails_only_its_own_cell() {
+fn a_bad_block_fails_only_its_own_cells() {
     use sha2::{Digest, Sha256};
     let data = strip(
-        10,
+        100,
         50,
         Frame::LonLat {
             lon0: 0.0,
@@ -398,20 +410,26 @@ fn a_bad_record_fails_only_its_own_cell() {
     );
     let bytes = encode_pvs(&data).unwrap().0;
     let u64_at = |at: usize| u64::from_le_bytes(bytes[at..at + 8].try_into().unwrap()) as usize;
-    let (index, records) = (u64_at(144), u64_at(152));
-    let cell = 7;
-    let start = records + u64_at(index + 8 * cell);
+    let u32_at = |at: usize| u32::from_le_bytes(bytes[at..at + 4].try_into().unwrap()) as usize;
+    let block_cells = u32_at(180);
+    let lengths: Vec<usize> = (0..6).map(|k| u64_at(184 + 8 * k)).collect();
+    let index = 232 + lengths[..4].iter().sum::<usize>();
+    let blocks = index + lengths[4];
+    let block = 1;
+    let start = blocks + u64_at(index + 8 * block);
     let mut bad = bytes[..bytes.len() - 32].to_vec();
-    bad[start] = 0x7f; // unknown tag
+    bad[start..start + 10]
+        .copy_from_slice(&[0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0x7f]);
     let digest = Sha256::digest(&bad);
     bad.extend_from_slice(&digest);
     let reader = PvsReader::from_bytes(bad).unwrap();
-    let err = reader.visible(cell).unwrap_err();
+    let first = block * block_cells;
+    let err = reader.visible(first + 3).unwrap_err();
     assert!(
-        err.message().contains("cell 7") && err.message().contains("tag"),
+        err.message().contains(&format!("cell {first}")) && err.message().contains("varint"),
         "{err}"
     );
-    for c in (0..reader.cell_count()).filter(|&c| c != cell) {
+    for c in (0..reader.cell_count()).filter(|&c| c / block_cells != block) {
         assert_eq!(reader.visible(c).unwrap(), data.visible[c]);
     }
     assert!(reader.visible(reader.cell_count()).is_err());

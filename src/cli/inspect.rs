@@ -1,5 +1,8 @@
 //! `citypvs inspect`: print a `.pvs` file's header and statistics, or dump
-//! its cells and visible sets as JSON.
+//! its cells and visible sets as JSON. Statistics are gathered cell by cell
+//! and the JSON cells are written one at a time, so memory stays a small
+//! multiple of the file whatever its sets hold; text output escapes control
+//! characters in ids and strings.
 
 use std::path::PathBuf;
 
@@ -7,7 +10,8 @@ use clap::Args;
 use serde::Serialize;
 
 use crate::input::Frame;
-use crate::pvs::codec::TAG_NAMES;
+use crate::pvs::blocks::MODE_NAMES;
+use crate::pvs::codec::zero_rle_len;
 use crate::pvs::{FORMAT_VERSION, PvsReader};
 use crate::{Error, Result};
 
@@ -49,12 +53,18 @@ struct HeaderJson<'a> {
     pixel: f64,
     max_cell_edge: f64,
     margin: f64,
+    near_field: f64,
+    min_gap: f64,
+    /// SHA-256 of the region polygon, or null when the bake had no region.
+    region_sha256: Option<String>,
 }
 
 #[derive(Serialize)]
 struct StatsJson {
     cells: usize,
     objects: usize,
+    vertices: usize,
+    cells_per_block: usize,
     mean_visible: f64,
     max_visible: usize,
     file_bytes: u64,
@@ -65,7 +75,7 @@ struct StatsJson {
     quake_rle_bytes: u64,
     /// raw bitset bytes / record bytes.
     compression_vs_raw: f64,
-    /// Records per coding, by name.
+    /// Cells per coding mode, by name.
     record_codings: std::collections::BTreeMap<&'static str, u64>,
 }
 
@@ -77,16 +87,12 @@ struct CellJson<'a> {
     visible: Vec<&'a str>,
 }
 
-#[derive(Serialize)]
-struct InspectJson<'a> {
-    file: String,
-    header: HeaderJson<'a>,
-    stats: StatsJson,
-    cells: Vec<CellJson<'a>>,
-}
-
 fn ratio(a: f64, b: f64) -> f64 {
     if b > 0.0 { a / b } else { 0.0 }
+}
+
+fn hex(bytes: &[u8]) -> String {
+    bytes.iter().map(|b| format!("{b:02x}")).collect()
 }
 
 fn header(reader: &PvsReader) -> HeaderJson<'_> {
@@ -94,11 +100,7 @@ fn header(reader: &PvsReader) -> HeaderJson<'_> {
     HeaderJson {
         format_version: FORMAT_VERSION,
         tool_version: &info.tool_version,
-        source_sha256: info
-            .source_hash
-            .iter()
-            .map(|b| format!("{b:02x}"))
-            .collect(),
+        source_sha256: hex(&info.source_hash),
         frame: match &info.frame {
             Frame::LonLat { lon0, lat0 } => FrameJson::LonLat {
                 lon0: *lon0,
@@ -115,47 +117,59 @@ fn header(reader: &PvsReader) -> HeaderJson<'_> {
         pixel: info.pixel,
         max_cell_edge: info.max_cell_edge,
         margin: info.margin,
+        near_field: info.near_field,
+        min_gap: info.min_gap,
+        region_sha256: (info.region_hash != [0; 32]).then(|| hex(&info.region_hash)),
     }
 }
 
 fn stats(reader: &PvsReader) -> Result<StatsJson> {
-    let sizes = reader.measure()?;
-    let counts = (0..reader.cell_count())
-        .map(|c| reader.visible(c).map(|v| v.len()))
-        .collect::<Result<Vec<_>>>()?;
     let cells = reader.cell_count();
+    let n = reader.object_ids().len();
+    let (mut total, mut max, mut quake) = (0usize, 0usize, 0u64);
+    let mut modes = [0u64; 4];
+    reader.for_each_visible_mode(|_, set, mode| {
+        total += set.len();
+        max = max.max(set.len());
+        quake += zero_rle_len(set, n);
+        modes[mode as usize & 3] += 1;
+        Ok(())
+    })?;
+    let raw = (cells * n.div_ceil(8)) as u64;
+    let records = reader.block_bytes();
     Ok(StatsJson {
         cells,
-        objects: reader.object_ids().len(),
-        mean_visible: ratio(counts.iter().sum::<usize>() as f64, cells as f64),
-        max_visible: counts.iter().copied().max().unwrap_or(0),
+        objects: n,
+        vertices: reader.vertex_count(),
+        cells_per_block: reader.block_cells(),
+        mean_visible: ratio(total as f64, cells as f64),
+        max_visible: max,
         file_bytes: reader.file_bytes(),
         bytes_per_cell: ratio(reader.file_bytes() as f64, cells as f64),
-        record_bytes: sizes.chosen,
-        record_bytes_per_cell: ratio(sizes.chosen as f64, cells as f64),
-        raw_bitset_bytes: sizes.raw_bitset,
-        quake_rle_bytes: sizes.quake_rle,
-        compression_vs_raw: ratio(sizes.raw_bitset as f64, sizes.chosen as f64),
-        record_codings: TAG_NAMES
-            .iter()
-            .zip(sizes.tag_counts)
-            .map(|(name, n)| (*name, n))
-            .collect(),
+        record_bytes: records,
+        record_bytes_per_cell: ratio(records as f64, cells as f64),
+        raw_bitset_bytes: raw,
+        quake_rle_bytes: quake,
+        compression_vs_raw: ratio(raw as f64, records as f64),
+        record_codings: MODE_NAMES.iter().copied().zip(modes).collect(),
     })
 }
 
-fn cell_json(reader: &PvsReader, index: usize) -> Result<CellJson<'_>> {
+fn cell_json<'a>(reader: &'a PvsReader, index: usize, visible: &[u32]) -> CellJson<'a> {
     let tri = reader.cell_triangle(index);
     let frame = &reader.info().frame;
-    Ok(CellJson {
+    CellJson {
         index,
         triangle_local: tri.map(|p| [p.x, p.y]),
         triangle_input: tri.map(|p| {
             let (x, y) = frame.to_input(p);
             [x, y]
         }),
-        visible: reader.visible_ids(index)?,
-    })
+        visible: visible
+            .iter()
+            .map(|&i| reader.object_ids()[i as usize].as_str())
+            .collect(),
+    }
 }
 
 pub fn run(args: &InspectArgs) -> Result<i32> {
@@ -170,58 +184,129 @@ pub fn run(args: &InspectArgs) -> Result<i32> {
         )));
     }
     let stats = stats(&reader).map_err(|e| e.context(&name))?;
-    let cells = match args.cell {
-        Some(c) => vec![c],
-        None if args.json => (0..reader.cell_count()).collect(),
-        None => Vec::new(),
+    let header = header(&reader);
+    let mut out = std::io::BufWriter::new(std::io::stdout().lock());
+    let write = |out: &mut dyn std::io::Write, text: &str| {
+        out.write_all(text.as_bytes())
+            .map_err(|e| Error::new(format!("cannot write the output: {e}")))
     };
-    let cells = cells
-        .into_iter()
-        .map(|c| cell_json(&reader, c))
-        .collect::<Result<Vec<_>>>()
-        .map_err(|e| e.context(&name))?;
-    let dump = InspectJson {
-        file: name,
-        header: header(&reader),
-        stats,
-        cells,
-    };
+    let json = |v: &dyn erased::Json| v.to_json();
     if args.json {
-        println!(
-            "{}",
-            serde_json::to_string(&dump).expect("inspect JSON serialises")
-        );
+        write(
+            &mut out,
+            &format!(
+                "{{\"file\":{},\"header\":{},\"stats\":{},\"cells\":[",
+                json(&name),
+                json(&header),
+                json(&stats)
+            ),
+        )?;
+        let mut first = true;
+        let mut emit = |out: &mut dyn std::io::Write, c: usize, set: &[u32]| -> Result<()> {
+            let sep = if first { "" } else { "," };
+            first = false;
+            write(out, sep)?;
+            write(out, &json(&cell_json(&reader, c, set)))
+        };
+        match args.cell {
+            Some(c) => {
+                let set = reader.visible(c).map_err(|e| e.context(&name))?;
+                emit(&mut out, c, &set)?;
+            }
+            None => reader
+                .for_each_visible(|c, set| emit(&mut out, c, set))
+                .map_err(|e| e.context(&name))?,
+        }
+        write(&mut out, "]}\n")?;
     } else {
-        print_text(&dump);
+        print_text(&mut out, &name, &header, &stats)?;
+        if let Some(c) = args.cell {
+            let set = reader.visible(c).map_err(|e| e.context(&name))?;
+            print_cell(&mut out, &cell_json(&reader, c, &set))?;
+        }
     }
+    std::io::Write::flush(&mut out)
+        .map_err(|e| Error::new(format!("cannot write the output: {e}")))?;
     Ok(0)
 }
 
-fn print_text(d: &InspectJson) {
-    let h = &d.header;
-    let s = &d.stats;
-    println!("file:         {}", d.file);
-    println!(
+mod erased {
+    /// Serialise anything `Serialize` to a JSON string through a trait object.
+    pub trait Json {
+        fn to_json(&self) -> String;
+    }
+    impl<T: serde::Serialize + ?Sized> Json for T {
+        fn to_json(&self) -> String {
+            serde_json::to_string(self).expect("inspect JSON serialises")
+        }
+    }
+}
+
+/// `s` with control characters escaped (`\n`, `\u{1b}`, ...), so that an id
+/// cannot move the cursor or recolour the terminal.
+pub fn escape_controls(s: &str) -> std::borrow::Cow<'_, str> {
+    if !s.chars().any(char::is_control) {
+        return std::borrow::Cow::Borrowed(s);
+    }
+    let mut out = String::with_capacity(s.len() + 8);
+    for ch in s.chars() {
+        if ch.is_control() {
+            out.extend(ch.escape_default());
+        } else {
+            out.push(ch);
+        }
+    }
+    std::borrow::Cow::Owned(out)
+}
+
+fn print_text(
+    out: &mut dyn std::io::Write,
+    file: &str,
+    h: &HeaderJson,
+    s: &StatsJson,
+) -> Result<()> {
+    let e = escape_controls;
+    let mut text = String::new();
+    use std::fmt::Write as _;
+    let _ = writeln!(text, "file:         {}", e(file));
+    let _ = writeln!(
+        text,
         "format:       .pvs version {}, written by {}",
-        h.format_version, h.tool_version
+        h.format_version,
+        e(h.tool_version)
     );
-    println!("input sha256: {}", h.source_sha256);
-    println!("frame:        {}", h.frame_description);
-    println!(
-        "bake:         eps {} m, eye height {} m, pixel {} m, max cell edge {} m, margin {} m",
-        h.eps, h.eye_height, h.pixel, h.max_cell_edge, h.margin
+    let _ = writeln!(text, "input sha256: {}", h.source_sha256);
+    let _ = writeln!(
+        text,
+        "region:       {}",
+        h.region_sha256
+            .as_deref()
+            .map_or("none".to_string(), |r| format!("sha256 {r}"))
     );
-    println!("cells:        {}", s.cells);
-    println!("objects:      {}", s.objects);
-    println!(
+    let _ = writeln!(text, "frame:        {}", e(&h.frame_description));
+    let _ = writeln!(
+        text,
+        "bake:         eps {} m, eye height {} m, pixel {} m, max cell edge {} m, margin {} m, near field {} m, min gap {} m",
+        h.eps, h.eye_height, h.pixel, h.max_cell_edge, h.margin, h.near_field, h.min_gap
+    );
+    let _ = writeln!(
+        text,
+        "cells:        {} ({} vertices, {} cells per block)",
+        s.cells, s.vertices, s.cells_per_block
+    );
+    let _ = writeln!(text, "objects:      {}", s.objects);
+    let _ = writeln!(
+        text,
         "visible:      mean {:.1}, max {} per cell",
         s.mean_visible, s.max_visible
     );
-    println!(
+    let _ = writeln!(
+        text,
         "file:         {} bytes, {:.1} bytes per cell",
         s.file_bytes, s.bytes_per_cell
     );
-    println!(
+    let _ = writeln!(
+        text,
         "records:      {} bytes, {:.1} per cell; raw bitsets would take {} ({:.1}x), Quake zero-RLE {}",
         s.record_bytes,
         s.record_bytes_per_cell,
@@ -234,17 +319,27 @@ fn print_text(d: &InspectJson) {
         .iter()
         .map(|(k, v)| format!("{k} {v}"))
         .collect();
-    println!("codings:      {}", codings.join(", "));
-    for c in &d.cells {
-        println!("cell {}:", c.index);
-        let fmt = |t: &[[f64; 2]; 3], digits: usize| {
-            t.iter()
-                .map(|p| format!("({:.digits$}, {:.digits$})", p[0], p[1]))
-                .collect::<Vec<_>>()
-                .join(" ")
-        };
-        println!("  local metres: {}", fmt(&c.triangle_local, 3));
-        println!("  input frame:  {}", fmt(&c.triangle_input, 8));
-        println!("  visible ({}): {}", c.visible.len(), c.visible.join(" "));
-    }
+    let _ = writeln!(text, "codings:      {}", codings.join(", "));
+    out.write_all(text.as_bytes())
+        .map_err(|e| Error::new(format!("cannot write the output: {e}")))
+}
+
+fn print_cell(out: &mut dyn std::io::Write, c: &CellJson) -> Result<()> {
+    let fmt = |t: &[[f64; 2]; 3], digits: usize| {
+        t.iter()
+            .map(|p| format!("({:.digits$}, {:.digits$})", p[0], p[1]))
+            .collect::<Vec<_>>()
+            .join(" ")
+    };
+    let ids: Vec<_> = c.visible.iter().map(|id| escape_controls(id)).collect();
+    let text = format!(
+        "cell {}:\n  local metres: {}\n  input frame:  {}\n  visible ({}): {}\n",
+        c.index,
+        fmt(&c.triangle_local, 3),
+        fmt(&c.triangle_input, 8),
+        c.visible.len(),
+        ids.join(" ")
+    );
+    out.write_all(text.as_bytes())
+        .map_err(|e| Error::new(format!("cannot write the output: {e}")))
 }

@@ -73,10 +73,10 @@ fn check_cells(
     let scene = crate::prepare::prepare(city.clone(), &settings)?;
     let ours = &scene.cells.triangles;
     let theirs = reader.cell_triangles();
-    if ours.as_slice() == theirs {
+    if *ours == theirs {
         return Ok(());
     }
-    let differ = match ours.iter().zip(theirs).position(|(a, b)| a != b) {
+    let differ = match ours.iter().zip(&theirs).position(|(a, b)| a != b) {
         Some(c) => format!("cell {c} differs"),
         None => format!("{} cells against {}", theirs.len(), ours.len()),
     };
@@ -177,17 +177,17 @@ fn run_in_pool(args: &VerifyArgs, threads: usize) -> Result<i32> {
     if !args.any_cells {
         check_cells(args, &city, &reader, &pvs_name)?;
     }
-    let visible = (0..reader.cell_count())
-        .map(|c| {
-            let mut set: Vec<u32> = reader
-                .visible(c)?
-                .into_iter()
-                .map(|o| object_to_building[o as usize])
+    let mut visible = Vec::with_capacity(reader.cell_count());
+    reader
+        .for_each_visible(|_, set| {
+            let mut set: Vec<u32> = set
+                .iter()
+                .map(|&o| object_to_building[o as usize])
                 .collect();
             set.sort_unstable();
-            Ok(set)
+            visible.push(set);
+            Ok(())
         })
-        .collect::<Result<Vec<_>>>()
         .map_err(|e| e.context(&pvs_name))?;
     let options = VerifyOptions {
         cells: if args.all { None } else { Some(args.cells) },
@@ -206,7 +206,7 @@ fn run_in_pool(args: &VerifyArgs, threads: usize) -> Result<i32> {
     };
     let mut report = verify_with_progress(
         &city.buildings,
-        reader.cell_triangles(),
+        &reader.cell_triangles(),
         info.eye_height,
         &visible,
         &options,

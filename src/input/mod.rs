@@ -13,7 +13,7 @@ pub mod detect;
 pub mod geojson;
 pub mod height;
 pub mod osm;
-pub mod projection;
+pub use crate::frame as projection;
 pub mod repair;
 
 use std::path::Path;

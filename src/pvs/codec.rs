@@ -1,6 +1,6 @@
-//! Coding of one cell's visible set as a self-contained record, and the size
-//! measurements that compare the candidate codings (docs/FORMAT.md, "Visible
-//! set records").
+//! The per-record codings of version 1 (still used to measure the
+//! alternatives and by the version 1 converter), raw bitsets and Quake's
+//! zero-byte run-length coding for comparison, and LEB128 varints.
 //!
 //! A record is one tag byte followed by the payload of the coding it names.
 //! The writer tries every coding and keeps the shortest (ties go to the lowest
@@ -34,7 +34,7 @@ pub fn write_leb128(out: &mut Vec<u8>, mut v: u64) {
 }
 
 /// Read a LEB128 varint holding a value below 2^32 (at most 5 bytes).
-fn read_leb128_u32(bytes: &[u8], pos: &mut usize) -> Result<u32, String> {
+pub fn read_leb128_u32(bytes: &[u8], pos: &mut usize) -> Result<u32, String> {
     let mut value: u64 = 0;
     for i in 0..5 {
         let Some(&byte) = bytes.get(*pos) else {
@@ -83,6 +83,25 @@ pub fn zero_rle(bits: &[u8]) -> Vec<u8> {
         i += run;
     }
     out
+}
+
+/// Length of [`zero_rle`] of the full bitset of `set` (ascending, below `n`)
+/// over `n` objects, computed without building the bitset.
+pub fn zero_rle_len(set: &[u32], n: usize) -> u64 {
+    let total = bitset_len(n) as u64;
+    let zero_run = |z: u64| 2 * z.div_ceil(255);
+    let mut bytes = 0u64;
+    let mut next_byte = 0u64; // first byte not yet accounted for
+    let mut k = 0;
+    while k < set.len() {
+        let b = u64::from(set[k] / 8);
+        while k < set.len() && u64::from(set[k] / 8) == b {
+            k += 1;
+        }
+        bytes += zero_run(b - next_byte) + 1;
+        next_byte = b + 1;
+    }
+    bytes + zero_run(total.saturating_sub(next_byte))
 }
 
 fn trim_trailing_zeros(mut bits: Vec<u8>) -> Vec<u8> {
@@ -262,7 +281,7 @@ fn encode_and_measure(set: &[u32], n: usize) -> (Vec<u8>, SchemeSizes) {
     let mut s = SchemeSizes {
         chosen: record.len() as u64,
         raw_bitset: bitset_len(n) as u64,
-        quake_rle: zero_rle(&bitset(set, n)).len() as u64,
+        quake_rle: zero_rle_len(set, n),
         gaps: encode_gaps(set).len() as u64,
         runs: encode_runs(set).len() as u64,
         tag_counts: [0; 4],
@@ -282,25 +301,6 @@ impl SchemeSizes {
             *a += b;
         }
     }
-}
-
-/// Encode every set (in parallel; the result does not depend on scheduling)
-/// and total the sizes of every coding.
-pub fn encode_all(sets: &[Vec<u32>], n: usize) -> (Vec<Vec<u8>>, SchemeSizes) {
-    use rayon::prelude::*;
-    let parts: Vec<(Vec<u8>, SchemeSizes)> = sets
-        .par_iter()
-        .map(|set| encode_and_measure(set, n))
-        .collect();
-    let mut total = SchemeSizes::default();
-    let records = parts
-        .into_iter()
-        .map(|(record, s)| {
-            total.add(&s);
-            record
-        })
-        .collect();
-    (records, total)
 }
 
 /// Measure every coding over `sets` (ascending indices below `n`).
@@ -380,6 +380,14 @@ mod tests {
             let record = encode_record(&set, n);
             prop_assert!(record.len() <= bitset_len(n) + 1);
             prop_assert_eq!(decode_record(&record, n).unwrap(), set);
+        }
+
+        #[test]
+        fn zero_rle_len_matches(n in 1usize..5000, picks in proptest::collection::vec(any::<u32>(), 0..300)) {
+            let mut set: Vec<u32> = picks.iter().map(|p| p % n as u32).collect();
+            set.sort_unstable();
+            set.dedup();
+            prop_assert_eq!(zero_rle_len(&set, n), zero_rle(&bitset(&set, n)).len() as u64);
         }
 
         #[test]

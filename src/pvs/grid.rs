@@ -30,14 +30,17 @@ pub fn triangle_contains(t: &[DVec2; 3], p: DVec2) -> bool {
 }
 
 impl CellGrid {
-    pub fn new(cells: &[[DVec2; 3]]) -> CellGrid {
+    /// The grid over `count` triangles, triangle `c` being `tri(c)`.
+    pub fn new(count: usize, tri: impl Fn(usize) -> [DVec2; 3]) -> CellGrid {
         let mut min = DVec2::splat(f64::INFINITY);
         let mut max = DVec2::splat(f64::NEG_INFINITY);
-        for p in cells.iter().flatten() {
-            min = min.min(*p);
-            max = max.max(*p);
+        for c in 0..count {
+            for p in tri(c) {
+                min = min.min(p);
+                max = max.max(p);
+            }
         }
-        if cells.is_empty() {
+        if count == 0 {
             return CellGrid {
                 min: DVec2::ZERO,
                 size: DVec2::ZERO,
@@ -49,7 +52,7 @@ impl CellGrid {
         }
         let size = max - min;
         // About one square per cell, squares as square as the bounds allow.
-        let target = (cells.len() as f64).max(1.0);
+        let target = (count as f64).max(1.0);
         let aspect = if size.y > 0.0 && size.x > 0.0 {
             size.x / size.y
         } else {
@@ -59,7 +62,7 @@ impl CellGrid {
         let mut ny = ((target / aspect).sqrt().ceil() as usize).clamp(1, 4096);
         // Huge triangles would list themselves in many squares: coarsen until
         // the lists stay small (a corrupt file cannot make us allocate much).
-        let limit = 16 * cells.len() as u64 + 1_000_000;
+        let limit = 16 * count as u64 + 1024;
         loop {
             let g = CellGrid {
                 min,
@@ -69,15 +72,14 @@ impl CellGrid {
                 starts: Vec::new(),
                 items: Vec::new(),
             };
-            let total: u64 = cells
-                .iter()
-                .map(|t| {
-                    let (x0, y0, x1, y1) = g.square_range(t);
+            let total: u64 = (0..count)
+                .map(|c| {
+                    let (x0, y0, x1, y1) = g.square_range(&tri(c));
                     ((x1 - x0 + 1) * (y1 - y0 + 1)) as u64
                 })
                 .sum();
             if total <= limit || (nx == 1 && ny == 1) {
-                return g.filled(cells);
+                return g.filled(count, &tri);
             }
             nx = nx.div_ceil(2);
             ny = ny.div_ceil(2);
@@ -113,11 +115,11 @@ impl CellGrid {
         )
     }
 
-    fn filled(mut self, cells: &[[DVec2; 3]]) -> CellGrid {
+    fn filled(mut self, count: usize, tri: &impl Fn(usize) -> [DVec2; 3]) -> CellGrid {
         let squares = self.nx * self.ny;
         let mut counts = vec![0u32; squares + 1];
-        for t in cells {
-            let (x0, y0, x1, y1) = self.square_range(t);
+        for c in 0..count {
+            let (x0, y0, x1, y1) = self.square_range(&tri(c));
             for y in y0..=y1 {
                 for x in x0..=x1 {
                     counts[y * self.nx + x + 1] += 1;
@@ -129,8 +131,8 @@ impl CellGrid {
         }
         let mut fill = counts.clone();
         let mut items = vec![0u32; counts[squares] as usize];
-        for (c, t) in cells.iter().enumerate() {
-            let (x0, y0, x1, y1) = self.square_range(t);
+        for c in 0..count {
+            let (x0, y0, x1, y1) = self.square_range(&tri(c));
             for y in y0..=y1 {
                 for x in x0..=x1 {
                     let s = y * self.nx + x;
@@ -145,7 +147,7 @@ impl CellGrid {
     }
 
     /// The lowest-numbered cell containing `p`, if any.
-    pub fn find(&self, cells: &[[DVec2; 3]], p: DVec2) -> Option<usize> {
+    pub fn find(&self, p: DVec2, tri: impl Fn(usize) -> [DVec2; 3]) -> Option<usize> {
         if self.nx == 0 || !p.is_finite() {
             return None;
         }
@@ -157,6 +159,6 @@ impl CellGrid {
         self.items[self.starts[s] as usize..self.starts[s + 1] as usize]
             .iter()
             .map(|&c| c as usize)
-            .find(|&c| triangle_contains(&cells[c], p))
+            .find(|&c| triangle_contains(&tri(c), p))
     }
 }

@@ -1,22 +1,33 @@
-//! The `.pvs` file: its layout (docs/FORMAT.md), the compression of each
-//! cell's visible set, atomic writing, and a reader that decodes one cell's
-//! record without touching the others.
+//! The `.pvs` file: its layout (docs/FORMAT.md, version 2), the coding of the
+//! visible sets in small blocks of cells, a streaming writer, and a reader
+//! that decodes any one cell's set by reading at most one block.
 //!
-//! Submodules: [`codec`] (record codings and their measurement), [`write`]
-//! (serialising), [`read`] (validating and decoding), [`grid`] (point lookup).
+//! Submodules: [`codec`] (varints, set codings and the Quake/bitset
+//! measurements), [`write`] ([`PvsWriter`], [`encode_pvs`], [`write_pvs`]),
+//! [`read`] ([`PvsReader`]: validating and decoding), `grid` (point lookup),
+//! and `v1` (a reader of the old version 1 layout, kept only so measurements
+//! can convert old files; [`PvsReader`] refuses version 1).
 
+pub mod blocks;
 pub mod codec;
 mod grid;
+pub use grid::triangle_contains;
 mod read;
+#[doc(hidden)]
+pub mod v1;
 mod write;
 
 use glam::DVec2;
 
-use crate::input::Frame;
+use crate::frame::Frame;
+use crate::{Error, Result};
 
 pub use codec::SchemeSizes;
 pub use read::PvsReader;
-pub use write::{encode_pvs, write_pvs};
+pub use write::{
+    PvsWriter, encode_pvs, encode_pvs_with_points, points_from_sets, spatial_ranks, write_pvs,
+    write_pvs_with_points,
+};
 
 /// The bake parameters and provenance stored in the header.
 #[derive(Clone, Debug, PartialEq)]
@@ -26,12 +37,72 @@ pub struct BakeInfo {
     pub pixel: f64,
     pub max_cell_edge: f64,
     pub margin: f64,
+    /// Half-size in metres of the near-field cull map around each sample.
+    pub near_field: f64,
+    /// Smallest gap in metres kept open between blocks (0 = none).
+    pub min_gap: f64,
     /// Map from local metres back to the input frame.
     pub frame: Frame,
     /// SHA-256 of the input file.
     pub source_hash: [u8; 32],
+    /// SHA-256 of the region polygon's canonical bytes; all zeros = no region.
+    pub region_hash: [u8; 32],
     /// citypvs version that wrote the file.
     pub tool_version: String,
+}
+
+impl BakeInfo {
+    /// Check every header number: finite, positive or non-negative as its
+    /// meaning needs, and the pixel small enough for eps (pixel * sqrt(2) / 2
+    /// <= eps). The writer and the reader both call this.
+    pub fn validate(&self) -> Result<()> {
+        let positive = [
+            ("eps", self.eps),
+            ("eye_height", self.eye_height),
+            ("pixel", self.pixel),
+            ("max_cell_edge", self.max_cell_edge),
+        ];
+        for (name, v) in positive {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(Error::new(format!(
+                    "header field {name} is {v}, not a positive number of metres"
+                )));
+            }
+        }
+        let non_negative = [
+            ("margin", self.margin),
+            ("near_field", self.near_field),
+            ("min_gap", self.min_gap),
+        ];
+        for (name, v) in non_negative {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(Error::new(format!(
+                    "header field {name} is {v}, not a non-negative number of metres"
+                )));
+            }
+        }
+        if self.pixel * std::f64::consts::SQRT_2 / 2.0 > self.eps {
+            return Err(Error::new(format!(
+                "header pixel {} is too large for eps {} (pixel * sqrt(2) / 2 must not exceed eps)",
+                self.pixel, self.eps
+            )));
+        }
+        let (x, y) = match &self.frame {
+            Frame::LonLat { lon0, lat0 } => (*lon0, *lat0),
+            Frame::Metric { origin, .. } => (origin.x, origin.y),
+        };
+        if !(x.is_finite() && y.is_finite()) {
+            return Err(Error::new("header frame origin is not finite"));
+        }
+        if let Frame::LonLat { lon0, lat0 } = &self.frame
+            && !(lon0.abs() <= 180.0 && lat0.abs() <= 90.0)
+        {
+            return Err(Error::new(format!(
+                "header frame origin lon {lon0}, lat {lat0} is not a longitude/latitude"
+            )));
+        }
+        Ok(())
+    }
 }
 
 /// Everything a `.pvs` file holds, decoded.
@@ -50,17 +121,35 @@ pub struct PvsData {
 #[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct WriteStats {
     pub file_bytes: u64,
-    /// Bytes of all visible-set records as written.
+    /// Bytes of the visible-set blocks (block section) as written.
     pub record_bytes: u64,
     /// What the same sets would take as raw bitsets.
     pub raw_bitset_bytes: u64,
     /// What the same sets would take as Quake-style run-length coded bitsets.
     pub rle_bitset_bytes: u64,
+    /// Bytes of the object table (ids and spatial numbering).
+    pub object_bytes: u64,
+    /// Bytes of the vertex table and the triangles' corner indices.
+    pub mesh_bytes: u64,
 }
 
 /// The first eight bytes of every `.pvs` file.
 pub const MAGIC: [u8; 8] = *b"CITYPVS\0";
 /// The layout version this code writes and reads.
-pub const FORMAT_VERSION: u32 = 1;
+pub const FORMAT_VERSION: u32 = 2;
 /// Length of the fixed-size header in bytes.
-pub const HEADER_BYTES: usize = 168;
+pub const HEADER_BYTES: usize = 232;
+/// Cells per block as the writer makes them (the reader accepts 1 to
+/// [`MAX_BLOCK_CELLS`]).
+pub const BLOCK_CELLS: u32 = 128;
+/// The largest block a reader accepts.
+pub const MAX_BLOCK_CELLS: u32 = 256;
+/// The sections after the header, in file order.
+pub const SECTION_NAMES: [&str; 6] = [
+    "strings",
+    "objects",
+    "vertices",
+    "triangles",
+    "block index",
+    "blocks",
+];

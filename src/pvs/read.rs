@@ -1,46 +1,64 @@
-//! Reading and validating a version 1 `.pvs` file. The header, object table,
-//! cells and record offsets are parsed at open; each visible-set record is
-//! decoded only when asked for.
+//! Reading and validating a version 2 `.pvs` file (docs/FORMAT.md). At open:
+//! the header (every number checked once), the section lengths, the object
+//! table, the vertex table, the triangles and the block index, each parsed
+//! within the bytes of its own section, so no count taken from the file can
+//! make the reader allocate more than that section justifies. Visible sets
+//! are decoded only when asked for, one block at most per cell.
 
 use std::path::Path;
 
 use glam::DVec2;
 use sha2::{Digest, Sha256};
 
-use super::codec::{SchemeSizes, decode_record, measure};
+use super::blocks::{BlockSets, read_varint};
 use super::grid::CellGrid;
-use super::{BakeInfo, FORMAT_VERSION, HEADER_BYTES, MAGIC};
-use crate::input::Frame;
+use super::{BakeInfo, FORMAT_VERSION, HEADER_BYTES, MAGIC, MAX_BLOCK_CELLS, SECTION_NAMES};
+use crate::frame::Frame;
 use crate::{Error, Result};
 
-/// Reads a `.pvs` file; each cell's record is decoded on demand.
+/// Reads a `.pvs` file; each cell's visible set is decoded on demand.
 pub struct PvsReader {
     bytes: Vec<u8>,
     info: BakeInfo,
     object_ids: Vec<String>,
-    cells: Vec<[DVec2; 3]>,
-    /// Byte range of each record in `bytes`: record c is `ranges[c]..ranges[c + 1]`.
-    ranges: Vec<usize>,
+    /// Input object index of each spatial rank.
+    input_of_rank: Vec<u32>,
+    vertices: Vec<DVec2>,
+    corners: Vec<[u32; 3]>,
+    block_cells: usize,
+    /// Byte position of the block index and of the blocks in `bytes`.
+    index_at: usize,
+    blocks_at: usize,
     grid: CellGrid,
 }
 
-/// Sequential little-endian reader over the file bytes.
+/// Sequential little-endian reader over one section's bytes.
 struct Cursor<'a> {
     bytes: &'a [u8],
     pos: usize,
+    section: &'static str,
 }
 
 impl<'a> Cursor<'a> {
+    fn new(bytes: &'a [u8], section: &'static str) -> Self {
+        Cursor {
+            bytes,
+            pos: 0,
+            section,
+        }
+    }
+    fn left(&self) -> usize {
+        self.bytes.len() - self.pos
+    }
     fn take(&mut self, n: usize, what: &str) -> Result<&'a [u8]> {
-        let end = self.pos.checked_add(n).filter(|&e| e <= self.bytes.len());
-        let Some(end) = end else {
+        if n > self.left() {
             return Err(Error::new(format!(
-                "{what} at byte {} runs past the end of the file",
-                self.pos
+                "{what} runs past the end of the {} section",
+                self.section
             )));
-        };
-        let s = &self.bytes[self.pos..end];
-        self.pos = end;
+        }
+        let s = &self.bytes[self.pos..self.pos + n];
+        self.pos += n;
         Ok(s)
     }
     fn u32(&mut self, what: &str) -> Result<u32> {
@@ -52,30 +70,28 @@ impl<'a> Cursor<'a> {
     fn f64(&mut self, what: &str) -> Result<f64> {
         Ok(f64::from_le_bytes(self.take(8, what)?.try_into().unwrap()))
     }
-    fn string(&mut self, what: &str) -> Result<String> {
-        let len = self.u32(what)? as usize;
-        let raw = self.take(len, what)?;
-        String::from_utf8(raw.to_vec())
-            .map_err(|_| Error::new(format!("{what} is not valid UTF-8")))
+    fn varint(&mut self, what: &str) -> Result<u64> {
+        read_varint(self.bytes, &mut self.pos)
+            .map_err(|e| Error::new(format!("{what} in the {} section: {e}", self.section)))
     }
-    /// Check that the writer's recorded offset matches where we are.
-    fn expect_at(&self, offset: u64, what: &str) -> Result<()> {
-        if offset != self.pos as u64 {
+    fn string(&mut self, what: &str) -> Result<&'a str> {
+        let len = self.varint(what)?;
+        if len > self.left() as u64 {
             return Err(Error::new(format!(
-                "header says the {what} start at byte {offset}, but they start at byte {}",
-                self.pos
+                "{what} of {len} bytes runs past the end of the {} section",
+                self.section
             )));
         }
-        Ok(())
+        let raw = self.take(len as usize, what)?;
+        std::str::from_utf8(raw).map_err(|_| Error::new(format!("{what} is not valid UTF-8")))
     }
-    fn skip_padding(&mut self) -> Result<()> {
-        while !self.pos.is_multiple_of(8) {
-            if self.take(1, "padding")?[0] != 0 {
-                return Err(Error::new(format!(
-                    "padding byte {} is not zero",
-                    self.pos - 1
-                )));
-            }
+    fn done(&self) -> Result<()> {
+        if self.left() != 0 {
+            return Err(Error::new(format!(
+                "the {} section has {} bytes left over",
+                self.section,
+                self.left()
+            )));
         }
         Ok(())
     }
@@ -94,18 +110,21 @@ impl PvsReader {
         if bytes.len() < MAGIC.len() || bytes[..MAGIC.len()] != MAGIC {
             return Err(Error::new("not a citypvs .pvs file (bad magic bytes)"));
         }
-        let mut c = Cursor {
-            bytes: &bytes,
-            pos: MAGIC.len(),
-        };
-        let version = c.u32("version")?;
+        let mut h = Cursor::new(&bytes, "header");
+        h.take(MAGIC.len(), "magic")?;
+        let version = h.u32("version")?;
+        if version == 1 {
+            return Err(Error::new(
+                "version 1 file: rebake with this citypvs (it reads .pvs version 2 only)",
+            ));
+        }
         if version != FORMAT_VERSION {
             return Err(Error::new(format!(
                 ".pvs format version {version} is not supported (this citypvs reads version {FORMAT_VERSION})"
             )));
         }
-        let flags = c.u32("flags")?;
-        let file_bytes = c.u64("file length")?;
+        let flags = h.u32("flags")?;
+        let file_bytes = h.u64("file length")?;
         if file_bytes != bytes.len() as u64 {
             return Err(Error::new(format!(
                 "the file is {} bytes but its header says {file_bytes}: it is truncated or has extra bytes",
@@ -126,15 +145,21 @@ impl PvsReader {
                 "unknown flags {flags:#x} in the header"
             )));
         }
-        let (info, object_ids, cells, ranges) = parse_body(&mut c, body)?;
-        let grid = CellGrid::new(&cells);
+        let parsed = parse(&bytes[..body])?;
+        let corners = &parsed.corners;
+        let vertices = &parsed.vertices;
+        let grid = CellGrid::new(corners.len(), |c| corners[c].map(|v| vertices[v as usize]));
         Ok(PvsReader {
-            bytes,
-            info,
-            object_ids,
-            cells,
-            ranges,
+            info: parsed.info,
+            object_ids: parsed.object_ids,
+            input_of_rank: parsed.input_of_rank,
+            vertices: parsed.vertices,
+            corners: parsed.corners,
+            block_cells: parsed.block_cells,
+            index_at: parsed.index_at,
+            blocks_at: parsed.blocks_at,
             grid,
+            bytes,
         })
     }
 
@@ -142,175 +167,395 @@ impl PvsReader {
         &self.info
     }
     pub fn cell_count(&self) -> usize {
-        self.cells.len()
+        self.corners.len()
     }
     pub fn object_ids(&self) -> &[String] {
         &self.object_ids
     }
+    /// Cells per block in this file.
+    pub fn block_cells(&self) -> usize {
+        self.block_cells
+    }
+    /// Number of distinct corner points of the cells.
+    pub fn vertex_count(&self) -> usize {
+        self.vertices.len()
+    }
     /// The triangle of a cell in local metres. Panics if `cell >= cell_count()`.
     pub fn cell_triangle(&self, cell: usize) -> [DVec2; 3] {
-        self.cells[cell]
+        self.corners[cell].map(|v| self.vertices[v as usize])
     }
-    /// All cell triangles in local metres.
-    pub fn cell_triangles(&self) -> &[[DVec2; 3]] {
-        &self.cells
+    /// All cell triangles in local metres (built on each call).
+    pub fn cell_triangles(&self) -> Vec<[DVec2; 3]> {
+        (0..self.cell_count())
+            .map(|c| self.cell_triangle(c))
+            .collect()
     }
     /// The cell containing the point (local metres), if any. A point on an
     /// edge shared by two cells goes to the lower-numbered one.
     pub fn cell_at(&self, p: DVec2) -> Option<usize> {
-        self.grid.find(&self.cells, p)
+        self.grid.find(p, |c| self.cell_triangle(c))
     }
     /// Length of the whole file in bytes.
     pub fn file_bytes(&self) -> u64 {
         self.bytes.len() as u64
     }
-    /// The raw record of a cell (tag byte and payload).
-    pub fn record(&self, cell: usize) -> Result<&[u8]> {
-        if cell >= self.cells.len() {
+    /// Bytes of the visible-set blocks.
+    pub fn block_bytes(&self) -> u64 {
+        (self.bytes.len() - 32 - self.blocks_at) as u64
+    }
+    fn block_offset(&self, b: usize) -> usize {
+        let at = self.index_at + 8 * b;
+        u64::from_le_bytes(self.bytes[at..at + 8].try_into().unwrap()) as usize
+    }
+    /// The bytes of block `b`.
+    fn block(&self, b: usize) -> &[u8] {
+        &self.bytes
+            [self.blocks_at + self.block_offset(b)..self.blocks_at + self.block_offset(b + 1)]
+    }
+    fn check_cell(&self, cell: usize) -> Result<()> {
+        if cell >= self.cell_count() {
             return Err(Error::new(format!(
                 "cell {cell} does not exist (the file has {} cells)",
-                self.cells.len()
+                self.cell_count()
             )));
         }
-        Ok(&self.bytes[self.ranges[cell]..self.ranges[cell + 1]])
+        Ok(())
     }
-    /// Ascending object indices visible from the cell.
+    /// Map ascending spatial ranks to ascending input indices in `out`,
+    /// through the bitset `marks` (kept all zero between calls).
+    fn to_input(&self, ranks: &[u32], marks: &mut Vec<u64>, out: &mut Vec<u32>) {
+        out.clear();
+        let words = self.object_ids.len().div_ceil(64);
+        if marks.len() != words {
+            marks.clear();
+            marks.resize(words, 0);
+        }
+        if ranks.len() < words {
+            out.extend(ranks.iter().map(|&r| self.input_of_rank[r as usize]));
+            out.sort_unstable();
+            return;
+        }
+        for &r in ranks {
+            let i = self.input_of_rank[r as usize];
+            marks[i as usize / 64] |= 1 << (i % 64);
+        }
+        for (k, word) in marks.iter_mut().enumerate() {
+            let mut w = std::mem::take(word);
+            while w != 0 {
+                out.push((k * 64) as u32 + w.trailing_zeros());
+                w &= w - 1;
+            }
+        }
+    }
+    /// Decode the cells of block `b` up to and including `last` (index in
+    /// the block), calling `f(cell, ranks, mode)` for each; `state` is
+    /// reused between blocks.
+    fn decode_block(
+        &self,
+        b: usize,
+        last: usize,
+        state: &mut BlockSets,
+        mut f: impl FnMut(usize, &[u32], u8) -> Result<()>,
+    ) -> Result<()> {
+        let bytes = self.block(b);
+        let n = self.object_ids.len() as u32;
+        let first = b * self.block_cells;
+        state.clear();
+        let (mut pos, mut list, mut set) = (0, Vec::new(), Vec::new());
+        for k in 0..=last {
+            let cell = first + k;
+            let mode = state
+                .decode_next(bytes, &mut pos, n, &mut list, &mut set)
+                .map_err(|e| Error::new(format!("visible set of cell {cell}: {e}")))?;
+            f(cell, &set, mode)?;
+        }
+        let whole = first + last + 1 == self.cell_count() || last + 1 == self.block_cells;
+        if whole && pos != bytes.len() {
+            return Err(Error::new(format!(
+                "block {b} has {} bytes after its last cell",
+                bytes.len() - pos
+            )));
+        }
+        Ok(())
+    }
+    /// Ascending input object indices visible from the cell; reads only the
+    /// cell's block.
     pub fn visible(&self, cell: usize) -> Result<Vec<u32>> {
-        decode_record(self.record(cell)?, self.object_ids.len())
-            .map_err(|e| Error::new(format!("visible set of cell {cell}: {e}")))
+        self.check_cell(cell)?;
+        let b = cell / self.block_cells;
+        let (mut out, mut marks) = (Vec::new(), Vec::new());
+        let mut state = BlockSets::new(self.object_ids.len() as u32);
+        self.decode_block(b, cell % self.block_cells, &mut state, |c, ranks, _| {
+            if c == cell {
+                self.to_input(ranks, &mut marks, &mut out);
+            }
+            Ok(())
+        })?;
+        Ok(out)
     }
     /// Input ids of the objects visible from the cell.
     pub fn visible_ids(&self, cell: usize) -> Result<Vec<&str>> {
         Ok(self
             .visible(cell)?
             .into_iter()
-            .map(|i| self.object_ids()[i as usize].as_str())
+            .map(|i| self.object_ids[i as usize].as_str())
             .collect())
     }
-    /// Decode every record and measure it under each candidate coding.
-    pub fn measure(&self) -> Result<SchemeSizes> {
-        let sets = (0..self.cell_count())
-            .map(|c| self.visible(c))
-            .collect::<Result<Vec<_>>>()?;
-        Ok(measure(
-            sets.iter().map(|s| s.as_slice()),
-            self.object_ids.len(),
-        ))
+    /// Call `f(cell, visible)` for every cell in order, with the ascending
+    /// input indices of its set, decoding each block once. Memory: one set.
+    pub fn for_each_visible(&self, mut f: impl FnMut(usize, &[u32]) -> Result<()>) -> Result<()> {
+        self.for_each_visible_mode(|c, v, _| f(c, v))
+    }
+    /// Like [`PvsReader::for_each_visible`], also giving each cell's coding
+    /// mode (see docs/FORMAT.md).
+    pub fn for_each_visible_mode(
+        &self,
+        mut f: impl FnMut(usize, &[u32], u8) -> Result<()>,
+    ) -> Result<()> {
+        let (mut out, mut marks) = (Vec::new(), Vec::new());
+        let mut state = BlockSets::new(self.object_ids.len() as u32);
+        let blocks = self.cell_count().div_ceil(self.block_cells);
+        for b in 0..blocks {
+            let last = (self.cell_count() - b * self.block_cells).min(self.block_cells) - 1;
+            self.decode_block(b, last, &mut state, |c, ranks, mode| {
+                self.to_input(ranks, &mut marks, &mut out);
+                f(c, &out, mode)
+            })?;
+        }
+        Ok(())
     }
 }
 
-type Body = (BakeInfo, Vec<String>, Vec<[DVec2; 3]>, Vec<usize>);
+struct Parsed {
+    info: BakeInfo,
+    object_ids: Vec<String>,
+    input_of_rank: Vec<u32>,
+    vertices: Vec<DVec2>,
+    corners: Vec<[u32; 3]>,
+    block_cells: usize,
+    index_at: usize,
+    blocks_at: usize,
+}
 
-fn parse_body(c: &mut Cursor, body: usize) -> Result<Body> {
-    let mut params = [0.0; 5];
-    for (v, name) in
-        params
-            .iter_mut()
-            .zip(["eps", "eye_height", "pixel", "max_cell_edge", "margin"])
-    {
-        *v = c.f64(name)?;
+/// Parse everything before the checksum.
+fn parse(body: &[u8]) -> Result<Parsed> {
+    let mut h = Cursor::new(&body[..HEADER_BYTES], "header");
+    h.take(24, "magic, version, flags and length")?;
+    let mut params = [0.0; 7];
+    let names = [
+        "eps",
+        "eye_height",
+        "pixel",
+        "max_cell_edge",
+        "margin",
+        "near_field",
+        "min_gap",
+    ];
+    for (v, name) in params.iter_mut().zip(names) {
+        *v = h.f64(name)?;
     }
-    let kind = c.u32("frame kind")?;
-    let has_crs = c.u32("CRS flag")?;
-    let fx = c.f64("frame x")?;
-    let fy = c.f64("frame y")?;
-    let source_hash: [u8; 32] = c.take(32, "source hash")?.try_into().unwrap();
-    let object_count = c.u32("object count")? as usize;
-    let cell_count = c.u32("cell count")? as usize;
-    let objects_offset = c.u64("objects offset")?;
-    let cells_offset = c.u64("cells offset")?;
-    let index_offset = c.u64("record index offset")?;
-    let records_offset = c.u64("records offset")?;
-    let records_bytes = c.u64("records length")?;
-    debug_assert_eq!(c.pos, HEADER_BYTES);
-    let tool_version = c.string("tool version")?;
-    let frame = match (kind, has_crs) {
-        (0, 0) => Frame::LonLat { lon0: fx, lat0: fy },
-        (1, 0 | 1) => Frame::Metric {
-            origin: DVec2::new(fx, fy),
-            crs: if has_crs == 1 {
-                Some(c.string("CRS name")?)
-            } else {
-                None
-            },
-        },
-        _ => {
+    let kind = h.u32("frame kind")?;
+    let has_crs = h.u32("CRS flag")?;
+    let fx = h.f64("frame x")?;
+    let fy = h.f64("frame y")?;
+    let source_hash: [u8; 32] = h.take(32, "source hash")?.try_into().unwrap();
+    let region_hash: [u8; 32] = h.take(32, "region hash")?.try_into().unwrap();
+    let object_count = h.u32("object count")?;
+    let cell_count = h.u32("cell count")?;
+    let vertex_count = h.u32("vertex count")?;
+    let block_cells = h.u32("cells per block")?;
+    let mut lengths = [0u64; 6];
+    for (len, name) in lengths.iter_mut().zip(SECTION_NAMES) {
+        *len = h.u64(name)?;
+    }
+    h.done()?;
+    if !matches!((kind, has_crs), (0, 0) | (1, 0 | 1)) {
+        return Err(Error::new(format!(
+            "unknown frame kind {kind} with CRS flag {has_crs}"
+        )));
+    }
+    if !(1..=MAX_BLOCK_CELLS).contains(&block_cells) {
+        return Err(Error::new(format!(
+            "header says {block_cells} cells per block (1 to {MAX_BLOCK_CELLS} allowed)"
+        )));
+    }
+    // The sections follow the header back to back and end at the checksum.
+    let mut sections = [&body[0..0]; 6];
+    let mut at = HEADER_BYTES as u64;
+    for (k, len) in lengths.iter().enumerate() {
+        let end = at.checked_add(*len).filter(|&e| e <= body.len() as u64);
+        let Some(end) = end else {
             return Err(Error::new(format!(
-                "unknown frame kind {kind} with CRS flag {has_crs}"
+                "the {} section of {len} bytes at byte {at} runs past the checksum (byte {})",
+                SECTION_NAMES[k],
+                body.len()
             )));
-        }
+        };
+        sections[k] = &body[at as usize..end as usize];
+        at = end;
+    }
+    if at != body.len() as u64 {
+        return Err(Error::new(format!(
+            "the sections end at byte {at}, but the checksum starts at byte {}",
+            body.len()
+        )));
+    }
+    let index_at = HEADER_BYTES + (lengths[..4].iter().sum::<u64>() as usize);
+    let blocks_at = index_at + lengths[4] as usize;
+
+    // Strings.
+    let mut s = Cursor::new(sections[0], "strings");
+    let tool_version = s.string("tool version")?.to_string();
+    let crs = if has_crs == 1 {
+        Some(s.string("CRS name")?.to_string())
+    } else {
+        None
     };
-    if !(fx.is_finite() && fy.is_finite()) {
-        return Err(Error::new("frame origin is not finite"));
-    }
-    c.expect_at(objects_offset, "object ids")?;
-    // Each id needs at least its 4-byte length: bound the count before allocating.
-    if object_count > (body - c.pos) / 4 {
-        return Err(Error::new(format!(
-            "header claims {object_count} objects, more than the file can hold"
-        )));
-    }
-    let mut object_ids = Vec::with_capacity(object_count);
-    for k in 0..object_count {
-        object_ids.push(c.string(&format!("id of object {k}"))?);
-    }
-    c.skip_padding()?;
-    c.expect_at(cells_offset, "cells")?;
-    if cell_count > (body - c.pos) / 56 {
-        return Err(Error::new(format!(
-            "header claims {cell_count} cells, more than the file can hold"
-        )));
-    }
-    let mut cells = Vec::with_capacity(cell_count);
-    for k in 0..cell_count {
-        let mut tri = [DVec2::ZERO; 3];
-        for p in &mut tri {
-            let what = format!("triangle of cell {k}");
-            *p = DVec2::new(c.f64(&what)?, c.f64(&what)?);
-            if !p.is_finite() {
-                return Err(Error::new(format!("cell {k} has a non-finite coordinate")));
-            }
-        }
-        cells.push(tri);
-    }
-    c.expect_at(index_offset, "record offsets")?;
-    let index_end = index_offset + 8 * (cell_count as u64 + 1);
-    if records_offset != index_end {
-        return Err(Error::new(format!(
-            "header says the records start at byte {records_offset}, expected {index_end}"
-        )));
-    }
-    if records_offset.checked_add(records_bytes) != Some(body as u64) {
-        return Err(Error::new(format!(
-            "records of {records_bytes} bytes from byte {records_offset} do not end where the checksum starts (byte {body})"
-        )));
-    }
-    let mut ranges = Vec::with_capacity(cell_count + 1);
-    let mut previous = 0u64;
-    for k in 0..=cell_count {
-        let at = c.u64("record offset")?;
-        if (k == 0 && at != 0) || at < previous || at > records_bytes {
-            return Err(Error::new(format!(
-                "record offset {k} ({at}) is out of order or out of range"
-            )));
-        }
-        previous = at;
-        ranges.push((records_offset + at) as usize);
-    }
-    if previous != records_bytes {
-        return Err(Error::new(format!(
-            "record offsets end at {previous}, but the records take {records_bytes} bytes"
-        )));
-    }
+    s.done()?;
+    let frame = match kind {
+        0 => Frame::LonLat { lon0: fx, lat0: fy },
+        _ => Frame::Metric {
+            origin: DVec2::new(fx, fy),
+            crs,
+        },
+    };
     let info = BakeInfo {
         eps: params[0],
         eye_height: params[1],
         pixel: params[2],
         max_cell_edge: params[3],
         margin: params[4],
+        near_field: params[5],
+        min_gap: params[6],
         frame,
         source_hash,
+        region_hash,
         tool_version,
     };
-    Ok((info, object_ids, cells, ranges))
+    info.validate()?;
+
+    // Objects: each takes at least 2 bytes (id length and rank entry).
+    let n = object_count as usize;
+    let mut o = Cursor::new(sections[1], "objects");
+    if n > o.left() / 2 {
+        return Err(Error::new(format!(
+            "header claims {n} objects, more than the objects section of {} bytes can hold",
+            o.left()
+        )));
+    }
+    let mut object_ids = Vec::with_capacity(n);
+    for k in 0..n {
+        object_ids.push(o.string(&format!("id of object {k}"))?.to_string());
+    }
+    let mut input_of_rank = Vec::with_capacity(n);
+    let mut seen = vec![false; n];
+    for r in 0..n {
+        let i = o.varint("spatial numbering")?;
+        if i >= n as u64 || seen[i as usize] {
+            return Err(Error::new(format!(
+                "the spatial numbering is not a permutation of the objects (rank {r} names object {i})"
+            )));
+        }
+        seen[i as usize] = true;
+        input_of_rank.push(i as u32);
+    }
+    o.done()?;
+
+    // Vertices: exactly 16 bytes each.
+    let mut v = Cursor::new(sections[2], "vertices");
+    if lengths[2] != 16 * u64::from(vertex_count) {
+        return Err(Error::new(format!(
+            "the vertices section is {} bytes, but {vertex_count} vertices take {}",
+            lengths[2],
+            16 * u64::from(vertex_count)
+        )));
+    }
+    let mut vertices = Vec::with_capacity(vertex_count as usize);
+    for k in 0..vertex_count {
+        let p = DVec2::new(v.f64("vertex")?, v.f64("vertex")?);
+        if !p.is_finite() {
+            return Err(Error::new(format!(
+                "vertex {k} has a non-finite coordinate"
+            )));
+        }
+        vertices.push(p);
+    }
+
+    // Triangles: three corner varints (at least one byte each) per cell.
+    let cells = cell_count as usize;
+    let mut t = Cursor::new(sections[3], "triangles");
+    if cells > t.left() / 3 {
+        return Err(Error::new(format!(
+            "header claims {cells} cells, more than the triangles section of {} bytes can hold",
+            t.left()
+        )));
+    }
+    let mut corners = Vec::with_capacity(cells);
+    let mut next = 0u64; // vertices introduced so far
+    for c in 0..cells {
+        let mut tri = [0u32; 3];
+        for corner in &mut tri {
+            let back = t.varint("corner")?;
+            let index = if back == 0 {
+                next += 1;
+                next - 1
+            } else if back <= next {
+                next - back
+            } else {
+                return Err(Error::new(format!(
+                    "cell {c} refers to a vertex before the first"
+                )));
+            };
+            if index >= u64::from(vertex_count) {
+                return Err(Error::new(format!(
+                    "cell {c} uses vertex {index}, but there are {vertex_count}"
+                )));
+            }
+            *corner = index as u32;
+        }
+        corners.push(tri);
+    }
+    t.done()?;
+    if next != u64::from(vertex_count) {
+        return Err(Error::new(format!(
+            "the cells use {next} of the {vertex_count} vertices"
+        )));
+    }
+
+    // Block index: ascending offsets from 0 to the blocks' length.
+    let blocks = cells.div_ceil(block_cells as usize);
+    if lengths[4] != 8 * (blocks as u64 + 1) {
+        return Err(Error::new(format!(
+            "the block index is {} bytes, but {blocks} blocks need {}",
+            lengths[4],
+            8 * (blocks + 1)
+        )));
+    }
+    let mut b = Cursor::new(sections[4], "block index");
+    let mut previous = 0u64;
+    for k in 0..=blocks {
+        let off = b.u64("block offset")?;
+        if (k == 0 && off != 0) || off < previous || off > lengths[5] {
+            return Err(Error::new(format!(
+                "block offset {k} ({off}) is out of order or out of range"
+            )));
+        }
+        previous = off;
+    }
+    if previous != lengths[5] {
+        return Err(Error::new(format!(
+            "block offsets end at {previous}, but the blocks take {} bytes",
+            lengths[5]
+        )));
+    }
+    Ok(Parsed {
+        info,
+        object_ids,
+        input_of_rank,
+        vertices,
+        corners,
+        block_cells: block_cells as usize,
+        index_at,
+        blocks_at,
+    })
 }

@@ -1,21 +1,41 @@
-//! Serialising [`PvsData`] to the version 1 byte layout (docs/FORMAT.md) and
-//! writing it atomically.
+//! Writing version 2 files (docs/FORMAT.md): [`PvsWriter`] takes the header,
+//! the objects and the cell triangles up front, then the finished cells'
+//! visible sets one at a time in cell order; it holds only the output so far
+//! and the block being filled. [`encode_pvs`] and [`write_pvs`] write a whole
+//! [`PvsData`] through it.
 
+use std::collections::HashMap;
 use std::path::Path;
 
+use glam::DVec2;
 use sha2::{Digest, Sha256};
 
-use super::codec::encode_all;
-use super::{BakeInfo, FORMAT_VERSION, HEADER_BYTES, MAGIC, PvsData, WriteStats};
-use crate::input::Frame;
+use super::blocks::encode_cell;
+use super::codec::{bitset_len, write_leb128, zero_rle_len};
+use super::{BLOCK_CELLS, BakeInfo, FORMAT_VERSION, HEADER_BYTES, MAGIC, PvsData, WriteStats};
+use crate::frame::Frame;
 use crate::{Error, Result};
 
-/// Write the file atomically (temporary file in the same folder, then rename).
-pub fn write_pvs(path: &Path, data: &PvsData) -> Result<WriteStats> {
-    let (bytes, mut stats) = encode_pvs(data).map_err(|e| e.context(path.display()))?;
-    crate::atomic::write_atomically(path, &bytes)?;
-    stats.file_bytes = bytes.len() as u64;
-    Ok(stats)
+/// A streaming `.pvs` writer. Cells' sets are pushed in cell order; the
+/// file is complete after [`PvsWriter::finish`].
+pub struct PvsWriter {
+    out: Vec<u8>,
+    object_count: u32,
+    cell_count: usize,
+    block_cells: usize,
+    /// Spatial rank of each input object index.
+    rank_of: Vec<u32>,
+    /// Where the block index starts in `out`, and where the blocks start.
+    index_at: usize,
+    blocks_at: usize,
+    pushed: usize,
+    block: Vec<u8>,
+    /// The sets (ranks) of the block's cells so far.
+    earlier: Vec<Vec<u32>>,
+    cur: Vec<u32>,
+    diff: Vec<u32>,
+    stats: WriteStats,
+    mode_counts: [u64; 4],
 }
 
 fn put_u32(out: &mut Vec<u8>, v: u32) {
@@ -27,27 +47,320 @@ fn put_u64(out: &mut Vec<u8>, v: u64) {
 fn put_f64(out: &mut Vec<u8>, v: f64) {
     out.extend_from_slice(&v.to_le_bytes());
 }
-fn put_str(out: &mut Vec<u8>, s: &str) -> Result<()> {
-    let len = u32::try_from(s.len())
-        .map_err(|_| Error::new(format!("string of {} bytes is too long", s.len())))?;
-    put_u32(out, len);
+fn put_str(out: &mut Vec<u8>, s: &str) {
+    write_leb128(out, s.len() as u64);
     out.extend_from_slice(s.as_bytes());
-    Ok(())
-}
-fn pad_to_8(out: &mut Vec<u8>) {
-    while !out.len().is_multiple_of(8) {
-        out.push(0);
-    }
 }
 fn patch_u64(out: &mut [u8], at: usize, v: u64) {
     out[at..at + 8].copy_from_slice(&v.to_le_bytes());
 }
 
-fn check(data: &PvsData) -> Result<()> {
-    let n = data.object_ids.len();
-    if u32::try_from(n).is_err() || u32::try_from(data.cells.len()).is_err() {
-        return Err(Error::new("more than 2^32 - 1 objects or cells"));
+/// Interleave the bits of two 16-bit numbers (x in the even bits).
+fn morton(x: u32, y: u32) -> u32 {
+    fn spread(mut v: u32) -> u32 {
+        v &= 0xffff;
+        v = (v | (v << 8)) & 0x00ff_00ff;
+        v = (v | (v << 4)) & 0x0f0f_0f0f;
+        v = (v | (v << 2)) & 0x3333_3333;
+        v = (v | (v << 1)) & 0x5555_5555;
+        v
     }
+    spread(x) | (spread(y) << 1)
+}
+
+/// The spatial numbering: objects sorted by the Morton code of their point
+/// on a 65536 x 65536 grid over the points' bounding box, ties by input
+/// index. Returns the input index of each rank.
+pub fn spatial_ranks(points: &[DVec2]) -> Vec<u32> {
+    let mut lo = DVec2::splat(f64::INFINITY);
+    let mut hi = DVec2::splat(f64::NEG_INFINITY);
+    for p in points {
+        lo = lo.min(*p);
+        hi = hi.max(*p);
+    }
+    let size = (hi - lo).max(DVec2::splat(1e-9));
+    let q = |v: f64, lo: f64, size: f64| (((v - lo) / size * 65535.0).round() as u32).min(65535);
+    let mut keyed: Vec<(u32, u32)> = points
+        .iter()
+        .enumerate()
+        .map(|(i, p)| (morton(q(p.x, lo.x, size.x), q(p.y, lo.y, size.y)), i as u32))
+        .collect();
+    keyed.sort_unstable();
+    keyed.into_iter().map(|(_, i)| i).collect()
+}
+
+impl PvsWriter {
+    /// Start a file with cells of [`BLOCK_CELLS`] per block.
+    pub fn new(
+        info: BakeInfo,
+        object_ids: Vec<String>,
+        object_points: Vec<DVec2>,
+        cells: Vec<[DVec2; 3]>,
+    ) -> Result<PvsWriter> {
+        PvsWriter::with_block_cells(info, object_ids, object_points, cells, BLOCK_CELLS)
+    }
+
+    /// Start a file with `block_cells` cells per block (1 to
+    /// [`super::MAX_BLOCK_CELLS`]); for measuring the block size.
+    pub fn with_block_cells(
+        info: BakeInfo,
+        object_ids: Vec<String>,
+        object_points: Vec<DVec2>,
+        cells: Vec<[DVec2; 3]>,
+        block_cells: u32,
+    ) -> Result<PvsWriter> {
+        info.validate()?;
+        if !(1..=super::MAX_BLOCK_CELLS).contains(&block_cells) {
+            return Err(Error::new(format!("{block_cells} cells per block")));
+        }
+        let n = object_ids.len();
+        if u32::try_from(n).is_err() || u32::try_from(cells.len()).is_err() {
+            return Err(Error::new("more than 2^32 - 1 objects or cells"));
+        }
+        if object_points.len() != n {
+            return Err(Error::new(format!(
+                "{n} objects but {} object points",
+                object_points.len()
+            )));
+        }
+        if let Some(k) = object_points.iter().position(|p| !p.is_finite()) {
+            return Err(Error::new(format!("object {k} has a non-finite point")));
+        }
+        for (c, tri) in cells.iter().enumerate() {
+            if !tri.iter().all(|p| p.is_finite()) {
+                return Err(Error::new(format!("cell {c} has a non-finite coordinate")));
+            }
+        }
+        let input_of_rank = spatial_ranks(&object_points);
+        let mut rank_of = vec![0u32; n];
+        for (r, &i) in input_of_rank.iter().enumerate() {
+            rank_of[i as usize] = r as u32;
+        }
+
+        // Vertex table in order of first use; corners as back-references.
+        let mut vertex_of: HashMap<(u64, u64), u32> = HashMap::new();
+        let mut vertices = Vec::new();
+        let mut triangles = Vec::new();
+        for tri in &cells {
+            for p in tri {
+                let key = (p.x.to_bits(), p.y.to_bits());
+                let next = vertices.len() as u32;
+                let v = *vertex_of.entry(key).or_insert(next);
+                if v == next {
+                    vertices.push(*p);
+                    write_leb128(&mut triangles, 0);
+                } else {
+                    write_leb128(&mut triangles, u64::from(next - v));
+                }
+            }
+        }
+        let vertex_count =
+            u32::try_from(vertices.len()).map_err(|_| Error::new("more than 2^32 - 1 vertices"))?;
+
+        let mut strings = Vec::new();
+        put_str(&mut strings, &info.tool_version);
+        if let Frame::Metric { crs: Some(crs), .. } = &info.frame {
+            put_str(&mut strings, crs);
+        }
+        let mut objects = Vec::new();
+        for id in &object_ids {
+            put_str(&mut objects, id);
+        }
+        for &i in &input_of_rank {
+            write_leb128(&mut objects, u64::from(i));
+        }
+        let mut vertex_bytes = Vec::with_capacity(vertices.len() * 16);
+        for p in &vertices {
+            put_f64(&mut vertex_bytes, p.x);
+            put_f64(&mut vertex_bytes, p.y);
+        }
+        let block_count = cells.len().div_ceil(block_cells as usize);
+        let index_len = 8 * (block_count + 1);
+
+        let mut out = Vec::new();
+        out.extend_from_slice(&MAGIC);
+        put_u32(&mut out, FORMAT_VERSION);
+        put_u32(&mut out, 0); // flags
+        put_u64(&mut out, 0); // file_bytes, patched by finish
+        for v in [
+            info.eps,
+            info.eye_height,
+            info.pixel,
+            info.max_cell_edge,
+            info.margin,
+            info.near_field,
+            info.min_gap,
+        ] {
+            put_f64(&mut out, v);
+        }
+        let (kind, has_crs, x, y) = match &info.frame {
+            Frame::LonLat { lon0, lat0 } => (0, 0, *lon0, *lat0),
+            Frame::Metric { origin, crs } => (1, u32::from(crs.is_some()), origin.x, origin.y),
+        };
+        put_u32(&mut out, kind);
+        put_u32(&mut out, has_crs);
+        put_f64(&mut out, x);
+        put_f64(&mut out, y);
+        out.extend_from_slice(&info.source_hash);
+        out.extend_from_slice(&info.region_hash);
+        put_u32(&mut out, n as u32);
+        put_u32(&mut out, cells.len() as u32);
+        put_u32(&mut out, vertex_count);
+        put_u32(&mut out, block_cells);
+        for len in [
+            strings.len(),
+            objects.len(),
+            vertex_bytes.len(),
+            triangles.len(),
+            index_len,
+            0, // blocks, patched by finish
+        ] {
+            put_u64(&mut out, len as u64);
+        }
+        debug_assert_eq!(out.len(), HEADER_BYTES);
+        out.extend_from_slice(&strings);
+        out.extend_from_slice(&objects);
+        out.extend_from_slice(&vertex_bytes);
+        out.extend_from_slice(&triangles);
+        let index_at = out.len();
+        out.resize(index_at + index_len, 0);
+        let blocks_at = out.len();
+        let stats = WriteStats {
+            object_bytes: objects.len() as u64,
+            mesh_bytes: (vertex_bytes.len() + triangles.len()) as u64,
+            ..WriteStats::default()
+        };
+        Ok(PvsWriter {
+            out,
+            object_count: n as u32,
+            cell_count: cells.len(),
+            block_cells: block_cells as usize,
+            rank_of,
+            index_at,
+            blocks_at,
+            pushed: 0,
+            block: Vec::new(),
+            earlier: Vec::new(),
+            cur: Vec::new(),
+            diff: Vec::new(),
+            stats,
+            mode_counts: [0; 4],
+        })
+    }
+
+    /// Add the next cell's visible set: strictly ascending input object indices.
+    pub fn push_cell(&mut self, visible: &[u32]) -> Result<()> {
+        let c = self.pushed;
+        if c >= self.cell_count {
+            return Err(Error::new(format!(
+                "more visible sets than the {} cells",
+                self.cell_count
+            )));
+        }
+        if !visible.windows(2).all(|w| w[0] < w[1]) {
+            return Err(Error::new(format!(
+                "visible set of cell {c} is not strictly ascending"
+            )));
+        }
+        if let Some(&last) = visible.last()
+            && last >= self.object_count
+        {
+            return Err(Error::new(format!(
+                "visible set of cell {c} holds object {last}, but there are only {} objects",
+                self.object_count
+            )));
+        }
+        let n = self.object_count as usize;
+        self.stats.raw_bitset_bytes += bitset_len(n) as u64;
+        self.stats.rle_bitset_bytes += zero_rle_len(visible, n);
+        self.cur.clear();
+        self.cur
+            .extend(visible.iter().map(|&i| self.rank_of[i as usize]));
+        self.cur.sort_unstable();
+        let mode = encode_cell(&self.earlier, &self.cur, &mut self.diff, &mut self.block);
+        self.mode_counts[mode as usize] += 1;
+        self.earlier.push(std::mem::take(&mut self.cur));
+        self.pushed += 1;
+        if self.pushed.is_multiple_of(self.block_cells) || self.pushed == self.cell_count {
+            self.out.extend_from_slice(&self.block);
+            self.block.clear();
+            self.earlier.clear();
+            let b = self.pushed.div_ceil(self.block_cells);
+            let end = (self.out.len() - self.blocks_at) as u64;
+            patch_u64(&mut self.out, self.index_at + 8 * b, end);
+        }
+        Ok(())
+    }
+
+    /// How many cells used each mode so far, index = mode.
+    pub fn mode_counts(&self) -> [u64; 4] {
+        self.mode_counts
+    }
+
+    /// The complete file bytes (every cell must have been pushed).
+    pub fn finish(mut self) -> Result<(Vec<u8>, WriteStats)> {
+        if self.pushed != self.cell_count {
+            return Err(Error::new(format!(
+                "{} of {} cells' visible sets were written",
+                self.pushed, self.cell_count
+            )));
+        }
+        let blocks_len = (self.out.len() - self.blocks_at) as u64;
+        patch_u64(&mut self.out, HEADER_BYTES - 8, blocks_len);
+        let file_bytes = self.out.len() as u64 + 32;
+        patch_u64(&mut self.out, 16, file_bytes);
+        let digest = Sha256::digest(&self.out);
+        self.out.extend_from_slice(&digest);
+        self.stats.record_bytes = blocks_len;
+        self.stats.file_bytes = file_bytes;
+        Ok((self.out, self.stats))
+    }
+
+    /// Finish and write the file atomically (temporary file, then rename).
+    pub fn finish_to(self, path: &Path) -> Result<WriteStats> {
+        let (bytes, stats) = self.finish().map_err(|e| e.context(path.display()))?;
+        crate::atomic::write_atomically(path, &bytes)?;
+        Ok(stats)
+    }
+}
+
+/// A representative point per object when the caller has none: the mean
+/// centroid of the cells that see it (objects seen by no cell go to the
+/// origin). Neighbouring objects are seen from neighbouring cells, so this
+/// numbers objects spatially enough for the coding.
+pub fn points_from_sets(data: &PvsData) -> Vec<DVec2> {
+    let n = data.object_ids.len();
+    let mut sum = vec![DVec2::ZERO; n];
+    let mut count = vec![0u32; n];
+    for (tri, set) in data.cells.iter().zip(&data.visible) {
+        let centre = (tri[0] + tri[1] + tri[2]) / 3.0;
+        for &i in set {
+            if let (Some(s), Some(k)) = (sum.get_mut(i as usize), count.get_mut(i as usize)) {
+                *s += centre;
+                *k += 1;
+            }
+        }
+    }
+    sum.iter()
+        .zip(&count)
+        .map(|(s, &k)| {
+            if k > 0 {
+                *s / f64::from(k)
+            } else {
+                DVec2::ZERO
+            }
+        })
+        .collect()
+}
+
+/// The complete file bytes and the size measurements. Objects are numbered
+/// spatially by [`points_from_sets`].
+pub fn encode_pvs(data: &PvsData) -> Result<(Vec<u8>, WriteStats)> {
+    encode_pvs_with_points(data, points_from_sets(data))
+}
+
+/// Like [`encode_pvs`] with one representative point per object given.
+pub fn encode_pvs_with_points(data: &PvsData, points: Vec<DVec2>) -> Result<(Vec<u8>, WriteStats)> {
     if data.visible.len() != data.cells.len() {
         return Err(Error::new(format!(
             "{} cells but {} visible sets",
@@ -55,118 +368,33 @@ fn check(data: &PvsData) -> Result<()> {
             data.visible.len()
         )));
     }
-    for (c, tri) in data.cells.iter().enumerate() {
-        if !tri.iter().all(|p| p.is_finite()) {
-            return Err(Error::new(format!("cell {c} has a non-finite coordinate")));
-        }
+    let mut w = PvsWriter::new(
+        data.info.clone(),
+        data.object_ids.clone(),
+        points,
+        data.cells.clone(),
+    )?;
+    for set in &data.visible {
+        w.push_cell(set)?;
     }
-    for (c, set) in data.visible.iter().enumerate() {
-        if !set.windows(2).all(|w| w[0] < w[1]) {
-            return Err(Error::new(format!(
-                "visible set of cell {c} is not strictly ascending"
-            )));
-        }
-        if let Some(&last) = set.last()
-            && last as usize >= n
-        {
-            return Err(Error::new(format!(
-                "visible set of cell {c} holds object {last}, but there are only {n} objects"
-            )));
-        }
-    }
-    Ok(())
+    w.finish()
 }
 
-fn put_header(out: &mut Vec<u8>, info: &BakeInfo, objects: u32, cells: u32) {
-    out.extend_from_slice(&MAGIC);
-    put_u32(out, FORMAT_VERSION);
-    put_u32(out, 0); // flags
-    put_u64(out, 0); // file_bytes, patched at the end
-    for v in [
-        info.eps,
-        info.eye_height,
-        info.pixel,
-        info.max_cell_edge,
-        info.margin,
-    ] {
-        put_f64(out, v);
-    }
-    let (kind, has_crs, x, y) = match &info.frame {
-        Frame::LonLat { lon0, lat0 } => (0, 0, *lon0, *lat0),
-        Frame::Metric { origin, crs } => (1, u32::from(crs.is_some()), origin.x, origin.y),
-    };
-    put_u32(out, kind);
-    put_u32(out, has_crs);
-    put_f64(out, x);
-    put_f64(out, y);
-    out.extend_from_slice(&info.source_hash);
-    put_u32(out, objects);
-    put_u32(out, cells);
-    // objects_offset, cells_offset, index_offset, records_offset, records_bytes: patched below.
-    for _ in 0..5 {
-        put_u64(out, 0);
-    }
-    debug_assert_eq!(out.len(), HEADER_BYTES);
+/// Write the file atomically (temporary file in the same folder, then rename).
+pub fn write_pvs(path: &Path, data: &PvsData) -> Result<WriteStats> {
+    let (bytes, stats) = encode_pvs(data).map_err(|e| e.context(path.display()))?;
+    crate::atomic::write_atomically(path, &bytes)?;
+    Ok(stats)
 }
 
-/// The complete file bytes and the size measurements (file_bytes filled in).
-pub fn encode_pvs(data: &PvsData) -> Result<(Vec<u8>, WriteStats)> {
-    check(data)?;
-    let n = data.object_ids.len();
-    let mut out = Vec::new();
-    put_header(&mut out, &data.info, n as u32, data.cells.len() as u32);
-    put_str(&mut out, &data.info.tool_version)?;
-    if let Frame::Metric { crs: Some(crs), .. } = &data.info.frame {
-        put_str(&mut out, crs)?;
-    }
-    let objects_offset = out.len();
-    for id in &data.object_ids {
-        put_str(&mut out, id)?;
-    }
-    pad_to_8(&mut out);
-    let cells_offset = out.len();
-    for tri in &data.cells {
-        for p in tri {
-            put_f64(&mut out, p.x);
-            put_f64(&mut out, p.y);
-        }
-    }
-    let index_offset = out.len();
-    let (records, sizes) = encode_all(&data.visible, n);
-    let mut at = 0u64;
-    put_u64(&mut out, at);
-    for r in &records {
-        at += r.len() as u64;
-        put_u64(&mut out, at);
-    }
-    let records_offset = out.len();
-    for r in &records {
-        out.extend_from_slice(r);
-    }
-    let records_bytes = at;
-    let file_bytes = out.len() + 32;
-    patch_u64(&mut out, 16, file_bytes as u64);
-    for (k, v) in [
-        objects_offset,
-        cells_offset,
-        index_offset,
-        records_offset,
-        records_bytes as usize,
-    ]
-    .into_iter()
-    .enumerate()
-    {
-        patch_u64(&mut out, 128 + 8 * k, v as u64);
-    }
-    let digest = Sha256::digest(&out);
-    out.extend_from_slice(&digest);
-
-    debug_assert_eq!(sizes.chosen, records_bytes);
-    let stats = WriteStats {
-        file_bytes: out.len() as u64,
-        record_bytes: records_bytes,
-        raw_bitset_bytes: sizes.raw_bitset,
-        rle_bitset_bytes: sizes.quake_rle,
-    };
-    Ok((out, stats))
+/// Like [`write_pvs`] with one representative point per object given.
+pub fn write_pvs_with_points(
+    path: &Path,
+    data: &PvsData,
+    points: Vec<DVec2>,
+) -> Result<WriteStats> {
+    let (bytes, stats) =
+        encode_pvs_with_points(data, points).map_err(|e| e.context(path.display()))?;
+    crate::atomic::write_atomically(path, &bytes)?;
+    Ok(stats)
 }

@@ -256,8 +256,11 @@ impl Part {
             pixel: self.key.pixel,
             max_cell_edge: self.key.max_cell_edge,
             margin: self.key.margin,
+            near_field: self.key.near_field,
+            min_gap: self.key.min_gap,
             frame: self.frame.to_frame(),
             source_hash: self.key.source_hash,
+            region_hash: self.key.region_hash,
             tool_version: self.key.tool_version.clone(),
         }
     }

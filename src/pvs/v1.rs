@@ -1,0 +1,231 @@
+//! The old version 1 layout, read whole into a [`PvsData`]: only so that
+//! measurements and tools can convert files baked before version 2 (the
+//! ordinary reader, [`super::PvsReader`], refuses version 1). Fields that
+//! version 1 did not store (near field, minimum gap, region hash) come back
+//! as 0 / zeros.
+
+use glam::DVec2;
+use sha2::{Digest, Sha256};
+
+use super::codec::decode_record;
+use super::{BakeInfo, MAGIC, PvsData};
+use crate::frame::Frame;
+
+const V1_HEADER_BYTES: usize = 168;
+use crate::{Error, Result};
+
+/// Sequential little-endian reader over the file bytes.
+struct Cursor<'a> {
+    bytes: &'a [u8],
+    pos: usize,
+}
+
+impl<'a> Cursor<'a> {
+    fn take(&mut self, n: usize, what: &str) -> Result<&'a [u8]> {
+        let end = self.pos.checked_add(n).filter(|&e| e <= self.bytes.len());
+        let Some(end) = end else {
+            return Err(Error::new(format!(
+                "{what} at byte {} runs past the end of the file",
+                self.pos
+            )));
+        };
+        let s = &self.bytes[self.pos..end];
+        self.pos = end;
+        Ok(s)
+    }
+    fn u32(&mut self, what: &str) -> Result<u32> {
+        Ok(u32::from_le_bytes(self.take(4, what)?.try_into().unwrap()))
+    }
+    fn u64(&mut self, what: &str) -> Result<u64> {
+        Ok(u64::from_le_bytes(self.take(8, what)?.try_into().unwrap()))
+    }
+    fn f64(&mut self, what: &str) -> Result<f64> {
+        Ok(f64::from_le_bytes(self.take(8, what)?.try_into().unwrap()))
+    }
+    fn string(&mut self, what: &str) -> Result<String> {
+        let len = self.u32(what)? as usize;
+        let raw = self.take(len, what)?;
+        String::from_utf8(raw.to_vec())
+            .map_err(|_| Error::new(format!("{what} is not valid UTF-8")))
+    }
+    /// Check that the writer's recorded offset matches where we are.
+    fn expect_at(&self, offset: u64, what: &str) -> Result<()> {
+        if offset != self.pos as u64 {
+            return Err(Error::new(format!(
+                "header says the {what} start at byte {offset}, but they start at byte {}",
+                self.pos
+            )));
+        }
+        Ok(())
+    }
+    fn skip_padding(&mut self) -> Result<()> {
+        while !self.pos.is_multiple_of(8) {
+            if self.take(1, "padding")?[0] != 0 {
+                return Err(Error::new(format!(
+                    "padding byte {} is not zero",
+                    self.pos - 1
+                )));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Decode a whole version 1 file (checksum checked).
+pub fn read_v1(bytes: &[u8]) -> Result<PvsData> {
+    if bytes.len() < MAGIC.len() || bytes[..MAGIC.len()] != MAGIC {
+        return Err(Error::new("not a citypvs .pvs file (bad magic bytes)"));
+    }
+    let mut c = Cursor {
+        bytes,
+        pos: MAGIC.len(),
+    };
+    if c.u32("version")? != 1 {
+        return Err(Error::new("not a version 1 file"));
+    }
+    let _flags = c.u32("flags")?;
+    let file_bytes = c.u64("file length")?;
+    if file_bytes != bytes.len() as u64 || bytes.len() < V1_HEADER_BYTES + 32 {
+        return Err(Error::new("truncated version 1 file"));
+    }
+    let body = bytes.len() - 32;
+    if Sha256::digest(&bytes[..body]).as_slice() != &bytes[body..] {
+        return Err(Error::new("checksum mismatch"));
+    }
+    let c = &mut Cursor {
+        bytes: &bytes[..body],
+        pos: c.pos,
+    };
+    let (info, object_ids, cells, ranges) = parse_body(c, body)?;
+    let visible = (0..cells.len())
+        .map(|k| {
+            decode_record(&bytes[ranges[k]..ranges[k + 1]], object_ids.len())
+                .map_err(|e| Error::new(format!("visible set of cell {k}: {e}")))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    Ok(PvsData {
+        info,
+        object_ids,
+        cells,
+        visible,
+    })
+}
+
+type Body = (BakeInfo, Vec<String>, Vec<[DVec2; 3]>, Vec<usize>);
+
+fn parse_body(c: &mut Cursor, body: usize) -> Result<Body> {
+    let mut params = [0.0; 5];
+    for (v, name) in
+        params
+            .iter_mut()
+            .zip(["eps", "eye_height", "pixel", "max_cell_edge", "margin"])
+    {
+        *v = c.f64(name)?;
+    }
+    let kind = c.u32("frame kind")?;
+    let has_crs = c.u32("CRS flag")?;
+    let fx = c.f64("frame x")?;
+    let fy = c.f64("frame y")?;
+    let source_hash: [u8; 32] = c.take(32, "source hash")?.try_into().unwrap();
+    let object_count = c.u32("object count")? as usize;
+    let cell_count = c.u32("cell count")? as usize;
+    let objects_offset = c.u64("objects offset")?;
+    let cells_offset = c.u64("cells offset")?;
+    let index_offset = c.u64("record index offset")?;
+    let records_offset = c.u64("records offset")?;
+    let records_bytes = c.u64("records length")?;
+    debug_assert_eq!(c.pos, V1_HEADER_BYTES);
+    let tool_version = c.string("tool version")?;
+    let frame = match (kind, has_crs) {
+        (0, 0) => Frame::LonLat { lon0: fx, lat0: fy },
+        (1, 0 | 1) => Frame::Metric {
+            origin: DVec2::new(fx, fy),
+            crs: if has_crs == 1 {
+                Some(c.string("CRS name")?)
+            } else {
+                None
+            },
+        },
+        _ => {
+            return Err(Error::new(format!(
+                "unknown frame kind {kind} with CRS flag {has_crs}"
+            )));
+        }
+    };
+    if !(fx.is_finite() && fy.is_finite()) {
+        return Err(Error::new("frame origin is not finite"));
+    }
+    c.expect_at(objects_offset, "object ids")?;
+    // Each id needs at least its 4-byte length: bound the count before allocating.
+    if object_count > (body - c.pos) / 4 {
+        return Err(Error::new(format!(
+            "header claims {object_count} objects, more than the file can hold"
+        )));
+    }
+    let mut object_ids = Vec::with_capacity(object_count);
+    for k in 0..object_count {
+        object_ids.push(c.string(&format!("id of object {k}"))?);
+    }
+    c.skip_padding()?;
+    c.expect_at(cells_offset, "cells")?;
+    if cell_count > (body - c.pos) / 56 {
+        return Err(Error::new(format!(
+            "header claims {cell_count} cells, more than the file can hold"
+        )));
+    }
+    let mut cells = Vec::with_capacity(cell_count);
+    for k in 0..cell_count {
+        let mut tri = [DVec2::ZERO; 3];
+        for p in &mut tri {
+            let what = format!("triangle of cell {k}");
+            *p = DVec2::new(c.f64(&what)?, c.f64(&what)?);
+            if !p.is_finite() {
+                return Err(Error::new(format!("cell {k} has a non-finite coordinate")));
+            }
+        }
+        cells.push(tri);
+    }
+    c.expect_at(index_offset, "record offsets")?;
+    let index_end = index_offset + 8 * (cell_count as u64 + 1);
+    if records_offset != index_end {
+        return Err(Error::new(format!(
+            "header says the records start at byte {records_offset}, expected {index_end}"
+        )));
+    }
+    if records_offset.checked_add(records_bytes) != Some(body as u64) {
+        return Err(Error::new(format!(
+            "records of {records_bytes} bytes from byte {records_offset} do not end where the checksum starts (byte {body})"
+        )));
+    }
+    let mut ranges = Vec::with_capacity(cell_count + 1);
+    let mut previous = 0u64;
+    for k in 0..=cell_count {
+        let at = c.u64("record offset")?;
+        if (k == 0 && at != 0) || at < previous || at > records_bytes {
+            return Err(Error::new(format!(
+                "record offset {k} ({at}) is out of order or out of range"
+            )));
+        }
+        previous = at;
+        ranges.push((records_offset + at) as usize);
+    }
+    if previous != records_bytes {
+        return Err(Error::new(format!(
+            "record offsets end at {previous}, but the records take {records_bytes} bytes"
+        )));
+    }
+    let info = BakeInfo {
+        eps: params[0],
+        eye_height: params[1],
+        pixel: params[2],
+        max_cell_edge: params[3],
+        margin: params[4],
+        near_field: 0.0,
+        min_gap: 0.0,
+        frame,
+        source_hash,
+        region_hash: [0; 32],
+        tool_version,
+    };
+    Ok((info, object_ids, cells, ranges))
+}
