@@ -270,8 +270,8 @@ pub fn run(args: &RenderArgs) -> Result<i32> {
         .chain(args.scene.region.iter())
         .map(PathBuf::as_path)
         .collect();
-    crate::atomic::check_output(&args.output, &inputs)?;
     let city = read_city(&args.city, &args.input.options())?;
+    crate::atomic::check_output(&args.output, &inputs)?;
     let prepare_params = args.scene.params(&city.frame)?;
     let scene = prepare(city, &prepare_params)?;
     let Drawing { rendered, focus } = draw(args, &scene)?;
