@@ -271,6 +271,19 @@ fn an_absurd_number_of_verify_samples_is_refused_at_once() {
 }
 
 #[test]
+fn bench_refuses_absurd_city_sizes_at_once() {
+    for n in ["0", "1000000000000"] {
+        let out = Command::new(env!("CARGO_BIN_EXE_citypvs"))
+            .args(["bench", "--buildings", n])
+            .output()
+            .unwrap();
+        assert_eq!(out.status.code(), Some(2));
+        let e = String::from_utf8_lossy(&out.stderr);
+        assert!(e.contains("--buildings must be between 1 and"), "{n}: {e}");
+    }
+}
+
+#[test]
 fn absurd_thread_counts_are_refused_at_once() {
     for (command, threads) in [("bake", "10000"), ("bake", "0"), ("verify", "100000")] {
         let t = Instant::now();

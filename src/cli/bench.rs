@@ -48,6 +48,12 @@ struct Row {
 }
 
 pub fn run(args: &BenchArgs) -> Result<i32> {
+    let max = super::generate::MAX_BUILDINGS;
+    if let Some(&n) = args.buildings.iter().find(|&&n| n == 0 || n > max) {
+        return Err(crate::Error::new(format!(
+            "--buildings must be between 1 and {max}, got {n}"
+        )));
+    }
     let pool = super::common::thread_pool(args.threads)?;
     if !args.json {
         println!(
