@@ -50,7 +50,7 @@ fn resolve_links(path: &Path) -> Result<PathBuf> {
             _ => return Ok(p),
         }
     }
-    Err(Error::new(format!(
+    Err(Error::io(format!(
         "{}: cannot write: more than {MAX_LINKS} symbolic links to follow",
         path.display()
     )))
@@ -62,7 +62,7 @@ fn io_error(path: &Path, what: &str, e: io::Error) -> Error {
         .raw_os_error()
         .map(|code| io::Error::from_raw_os_error(code).to_string())
         .unwrap_or_else(|| e.to_string());
-    Error::new(format!("{}: {what}: {text}", path.display()))
+    Error::io(format!("{}: {what}: {text}", path.display()))
 }
 
 /// The folder holding `path` (`.` for a bare file name).
@@ -95,7 +95,7 @@ pub fn check_output(output: &Path, inputs: &[&Path]) -> Result<()> {
     if let Some(out_id) = identity(output) {
         for input in inputs {
             if identity(input) == Some(out_id) {
-                return Err(Error::new(format!(
+                return Err(Error::io(format!(
                     "{}: the output is the input {}: refusing to overwrite it (choose another -o)",
                     output.display(),
                     input.display()
@@ -105,7 +105,7 @@ pub fn check_output(output: &Path, inputs: &[&Path]) -> Result<()> {
     }
     let target = resolve_links(output)?;
     match fs::metadata(&target) {
-        Ok(m) if m.is_dir() => Err(Error::new(format!(
+        Ok(m) if m.is_dir() => Err(Error::io(format!(
             "{}: cannot write: it is a folder (give a file name)",
             output.display()
         ))),
@@ -115,7 +115,7 @@ pub fn check_output(output: &Path, inputs: &[&Path]) -> Result<()> {
             if dir.is_dir() {
                 Ok(())
             } else {
-                Err(Error::new(format!(
+                Err(Error::io(format!(
                     "{}: cannot write: the folder {} does not exist",
                     output.display(),
                     dir.display()
@@ -136,7 +136,7 @@ pub fn write_atomically(path: &Path, contents: &[u8]) -> Result<()> {
     }
     let target = resolve_links(path)?;
     match fs::metadata(&target) {
-        Ok(m) if m.is_dir() => Err(Error::new(format!(
+        Ok(m) if m.is_dir() => Err(Error::io(format!(
             "{}: cannot write: it is a folder",
             path.display()
         ))),

@@ -1,16 +1,18 @@
-//! The bake: a prepared scene's cells get their visible sets, and the result
-//! becomes a [`PvsData`] ready to write. Times every stage and gathers the
-//! statistics the `bake` command prints.
+//! The bake: a prepared scene's cells get their visible sets from the
+//! visibility engine, streamed in cell order to a sink (the file writer, a
+//! shard, a checkpoint), with the statistics the `bake` command prints.
 
+use std::ops::Range;
 use std::time::Instant;
 
 use crate::Result;
 use crate::prepare::{Scene, StageTime};
 use crate::pvs::{BakeInfo, PvsData};
-use crate::visibility::{VisibilityParams, compute_pvs};
+use crate::settings::{RawSettings, Settings};
+use crate::visibility::{SolveStats, VisibilityEngine};
 
 /// Statistics of one bake.
-#[derive(Clone, Debug, serde::Serialize)]
+#[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct BakeStats {
     pub cells: usize,
     pub samples: usize,
@@ -19,55 +21,122 @@ pub struct BakeStats {
     pub max_visible: usize,
     /// Fraction of (cell, object) pairs left out of the PVS.
     pub culled_fraction: f64,
+    /// The most unit (vertex or edge) visible sets held at once.
+    pub peak_sets_held: usize,
+}
+
+/// Running totals of the sets a bake hands on, turned into [`BakeStats`].
+#[derive(Clone, Debug, Default)]
+pub struct SetTally {
+    cells: usize,
+    total: usize,
+    max: usize,
+}
+
+impl SetTally {
+    /// Count one cell's set.
+    pub fn add(&mut self, set: &[u32]) {
+        self.cells += 1;
+        self.total += set.len();
+        self.max = self.max.max(set.len());
+    }
+
+    /// The statistics of the sets counted.
+    pub fn stats(&self, objects: usize, solve: &SolveStats) -> BakeStats {
+        BakeStats {
+            cells: self.cells,
+            samples: solve.samples,
+            objects,
+            mean_visible: if self.cells > 0 {
+                self.total as f64 / self.cells as f64
+            } else {
+                0.0
+            },
+            max_visible: self.max,
+            culled_fraction: if self.cells > 0 && objects > 0 {
+                1.0 - self.total as f64 / (self.cells as f64 * objects as f64)
+            } else {
+                0.0
+            },
+            peak_sets_held: solve.peak_units_held,
+        }
+    }
+}
+
+/// The header of a bake of `scene`.
+pub fn bake_info(scene: &Scene) -> BakeInfo {
+    let s = &scene.settings;
+    BakeInfo {
+        eps: s.eps,
+        eye_height: s.eye_height,
+        pixel: s.pixel,
+        max_cell_edge: s.max_cell_edge,
+        margin: s.margin,
+        frame: scene.city.frame.clone(),
+        source_hash: scene.city.source_hash,
+        tool_version: env!("CARGO_PKG_VERSION").to_string(),
+    }
+}
+
+/// The settings a `.pvs` header records, validated again (a file is user
+/// data), with the region the user gives for it.
+pub fn settings_of(info: &BakeInfo, region: Option<crate::model::Polygon>) -> Result<Settings> {
+    Settings::new(RawSettings {
+        eps: Some(info.eps),
+        pixel: Some(info.pixel),
+        eye_height: Some(info.eye_height),
+        max_cell_edge: Some(info.max_cell_edge),
+        margin: Some(info.margin),
+        near_field: None,
+        min_gap: None,
+        region,
+    })
+    .map_err(|e| crate::Error::format(format!("the file's header is not a valid bake: {e}")))
+}
+
+/// Solve the cells in `range` and hand each set to `sink` in cell order.
+pub fn bake_cells(
+    engine: &VisibilityEngine,
+    objects: usize,
+    range: Range<usize>,
+    progress: &(dyn Fn(u64) + Sync),
+    mut sink: impl FnMut(usize, &[u32]) -> Result<()>,
+) -> Result<(BakeStats, StageTime)> {
+    let t = Instant::now();
+    let mut tally = SetTally::default();
+    let solve = engine.solve_cells(range, progress, |cell, set| {
+        tally.add(&set);
+        sink(cell, &set)
+    })?;
+    let timing = StageTime {
+        stage: "visibility",
+        seconds: t.elapsed().as_secs_f64(),
+    };
+    Ok((tally.stats(objects, &solve), timing))
 }
 
 /// Compute every cell's PVS and package it with the bake parameters.
 pub fn bake(
     scene: &Scene,
-    params: &VisibilityParams,
-    max_cell_edge: f64,
-    margin: f64,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<(PvsData, BakeStats, StageTime)> {
-    let t = Instant::now();
-    let result = compute_pvs(scene, params, progress)?;
-    let timing = StageTime {
-        stage: "visibility",
-        seconds: t.elapsed().as_secs_f64(),
-    };
-    let objects = scene.city.buildings.len();
-    let total: usize = result.visible.iter().map(Vec::len).sum();
-    let cells = result.visible.len();
-    let stats = BakeStats {
-        cells,
-        samples: result.samples,
-        objects,
-        mean_visible: if cells > 0 {
-            total as f64 / cells as f64
-        } else {
-            0.0
+    let engine = VisibilityEngine::new(scene)?;
+    let mut visible = Vec::with_capacity(scene.cells.triangles.len());
+    let (stats, timing) = bake_cells(
+        &engine,
+        scene.city.buildings.len(),
+        0..scene.cells.triangles.len(),
+        progress,
+        |_, set| {
+            visible.push(set.to_vec());
+            Ok(())
         },
-        max_visible: result.visible.iter().map(Vec::len).max().unwrap_or(0),
-        culled_fraction: if cells > 0 && objects > 0 {
-            1.0 - total as f64 / (cells as f64 * objects as f64)
-        } else {
-            0.0
-        },
-    };
+    )?;
     let data = PvsData {
-        info: BakeInfo {
-            eps: scene.eps,
-            eye_height: params.eye_height,
-            pixel: params.pixel,
-            max_cell_edge,
-            margin,
-            frame: scene.city.frame.clone(),
-            source_hash: scene.city.source_hash,
-            tool_version: env!("CARGO_PKG_VERSION").to_string(),
-        },
+        info: bake_info(scene),
         object_ids: scene.city.buildings.iter().map(|b| b.id.clone()).collect(),
         cells: scene.cells.triangles.clone(),
-        visible: result.visible,
+        visible,
     };
     Ok((data, stats, timing))
 }

@@ -12,6 +12,7 @@
 //! | read | [`input`] | GeoJSON / OSM PBF / CityJSON footprints, heights, projection, repair |
 //! | merge and shrink | [`geometry`] | blocks of touching buildings as height fields, conservative erosion |
 //! | view cells | [`cells`] | constrained Delaunay triangulation of free space |
+//! | settings | [`settings`] | every bake number, validated once |
 //! | orchestration | [`prepare`] | runs the three stages above and times them |
 //! | bake | [`bake`] | runs visibility over a prepared scene and packages the PVS |
 //! | visibility | [`visibility`] | samples, cull maps, hierarchical horizon, per-cell PVS |
@@ -33,7 +34,9 @@ pub mod model;
 pub mod prepare;
 pub mod pvs;
 pub mod render;
+pub mod settings;
 pub mod verify;
 pub mod visibility;
 
-pub use error::{Error, Result};
+pub use error::{Error, ErrorKind, Result};
+pub use settings::{RawSettings, Settings};

@@ -7,27 +7,7 @@ use crate::Result;
 use crate::cells::{CellParams, Cells, triangulate};
 use crate::geometry::{Block, Occluder, merge_blocks, shrink_blocks};
 use crate::input::City;
-
-/// Default erosion distance eps in metres (METHOD.md 4).
-pub const DEFAULT_EPS: f64 = 1.0;
-
-/// Parameters of scene preparation.
-#[derive(Clone, Debug)]
-pub struct PrepareParams {
-    /// Erosion distance in metres.
-    pub eps: f64,
-    /// How to cut free space into cells.
-    pub cells: CellParams,
-}
-
-impl Default for PrepareParams {
-    fn default() -> Self {
-        PrepareParams {
-            eps: DEFAULT_EPS,
-            cells: CellParams::default(),
-        }
-    }
-}
+use crate::settings::Settings;
 
 /// Seconds spent in one named stage.
 #[derive(Clone, Debug, serde::Serialize)]
@@ -36,25 +16,29 @@ pub struct StageTime {
     pub seconds: f64,
 }
 
-/// A prepared scene: the city, its blocks, shrunk occluders and view cells.
+/// A prepared scene: the city, its blocks, shrunk occluders and view cells,
+/// and the settings they were made with.
 #[derive(Clone, Debug)]
 pub struct Scene {
     pub city: City,
     pub blocks: Vec<Block>,
     pub occluders: Vec<Occluder>,
     pub cells: Cells,
-    pub eps: f64,
+    pub settings: Settings,
     pub timings: Vec<StageTime>,
 }
 
-/// Run merge, shrink and triangulation over a city.
-pub fn prepare(city: City, params: &PrepareParams) -> Result<Scene> {
-    if !(params.eps > 0.0 && params.eps.is_finite()) {
-        return Err(crate::Error::new(format!(
-            "--eps must be a positive number of metres, got {}",
-            params.eps
-        )));
+/// How the cells stage reads the settings.
+pub fn cell_params(settings: &Settings) -> CellParams {
+    CellParams {
+        margin: settings.margin,
+        max_edge: settings.max_cell_edge,
+        region: settings.region.clone(),
     }
+}
+
+/// Run merge, shrink and triangulation over a city.
+pub fn prepare(city: City, settings: &Settings) -> Result<Scene> {
     let mut timings = Vec::new();
     let t = Instant::now();
     let blocks = merge_blocks(&city.buildings);
@@ -63,13 +47,13 @@ pub fn prepare(city: City, params: &PrepareParams) -> Result<Scene> {
         seconds: t.elapsed().as_secs_f64(),
     });
     let t = Instant::now();
-    let occluders = shrink_blocks(&blocks, params.eps);
+    let occluders = shrink_blocks(&blocks, settings.eps);
     timings.push(StageTime {
         stage: "erode",
         seconds: t.elapsed().as_secs_f64(),
     });
     let t = Instant::now();
-    let cells = triangulate(&blocks, &params.cells)?;
+    let cells = triangulate(&blocks, &cell_params(settings))?;
     timings.push(StageTime {
         stage: "triangulate",
         seconds: t.elapsed().as_secs_f64(),
@@ -79,7 +63,7 @@ pub fn prepare(city: City, params: &PrepareParams) -> Result<Scene> {
         blocks,
         occluders,
         cells,
-        eps: params.eps,
+        settings: settings.clone(),
         timings,
     })
 }

@@ -10,9 +10,9 @@ use citypvs::bake::bake;
 use citypvs::cli::render::{RenderArgs, draw};
 use citypvs::cli::{Cli, Command};
 use citypvs::prepare::Scene;
-use citypvs::pvs::write_pvs;
+use citypvs::pvs::{PvsReader, write_pvs};
 use citypvs::render::palette;
-use citypvs::visibility::{VisibilityParams, compute_pvs};
+use citypvs::visibility::VisibilityEngine;
 use clap::Parser;
 use common::*;
 use glam::DVec2;
@@ -33,8 +33,7 @@ fn street(eps: f64) -> Scene {
 }
 
 fn baked(scene: &Scene, path: &Path) {
-    let params = VisibilityParams::for_eps(scene.eps);
-    let (data, _, _) = bake(scene, &params, 30.0, 50.0, &|_| {}).unwrap();
+    let (data, _, _) = bake(scene, &|_| {}).unwrap();
     write_pvs(path, &data).unwrap();
 }
 
@@ -61,15 +60,17 @@ fn cell_from_a_pvs_file_chosen_by_point() {
     let scene = street(1.0);
     baked(&scene, &pvs);
     let pvs = pvs.to_str().unwrap();
+    let reader = PvsReader::open(Path::new(pvs)).unwrap();
     let drawing = draw(
         &args(&["--pvs", pvs, "--at=0.5,-0.5", "--size", "400"]),
         &scene,
+        Some(&reader),
     )
     .unwrap();
     let focus = drawing.focus.expect("a chosen cell");
     assert_eq!(focus.cell, 0);
-    let expected = compute_pvs(&scene, &VisibilityParams::for_eps(1.0), &|_| {}).unwrap();
-    assert_eq!(focus.visible, expected.visible[0]);
+    let expected = VisibilityEngine::new(&scene).unwrap().solve_cell(0);
+    assert_eq!(focus.visible, expected);
     let r = &drawing.rendered;
     assert_eq!(r.pixmap.width(), 400);
     assert_eq!(r.colour_at(DVec2::new(0.0, 35.0)), Some(palette::CULLED));
@@ -94,11 +95,13 @@ fn pvs_size_layer_reads_every_cell_from_the_file() {
         "--size",
         "400",
     ]);
-    let drawing = draw(&a, &scene).unwrap();
+    let reader = PvsReader::open(&pvs).unwrap();
+    let drawing = draw(&a, &scene, Some(&reader)).unwrap();
     assert!(drawing.focus.is_none());
-    let sizes: Vec<usize> = compute_pvs(&scene, &VisibilityParams::for_eps(1.0), &|_| {})
+    let sizes: Vec<usize> = VisibilityEngine::new(&scene)
         .unwrap()
-        .visible
+        .solve_all(&|_| {})
+        .unwrap()
         .iter()
         .map(Vec::len)
         .collect();
@@ -122,7 +125,7 @@ fn cull_map_and_radius_zoom_around_the_cell_without_a_file() {
     let a = args(&[
         "--cell", "0", "--layer", "cullmap", "--radius", "30", "--size", "300",
     ]);
-    let drawing = draw(&a, &scene).unwrap();
+    let drawing = draw(&a, &scene, None).unwrap();
     let r = &drawing.rendered;
     assert!((r.viewport.scale - 300.0 / 60.0).abs() < 1e-9);
     // Behind the wall the heat is on, in front of it there is none.
@@ -148,28 +151,33 @@ fn mismatched_files_and_bad_choices_are_explained() {
     baked(&street(1.0), &pvs);
     let pvs = pvs.to_str().unwrap();
     let other_eps = street(2.0);
-    let e = draw(&args(&["--pvs", pvs, "--cell", "0"]), &other_eps)
-        .err()
-        .unwrap()
-        .to_string();
-    assert!(e.contains("--eps 1"), "{e}");
+    let reader = PvsReader::open(Path::new(pvs)).unwrap();
+    let e = draw(
+        &args(&["--pvs", pvs, "--cell", "0"]),
+        &other_eps,
+        Some(&reader),
+    )
+    .err()
+    .unwrap()
+    .to_string();
+    assert!(e.contains("baked with eps 1"), "{e}");
     let scene = street(1.0);
-    let e = draw(&args(&["--at=0,22"]), &scene)
+    let e = draw(&args(&["--at=0,22"]), &scene, None)
         .err()
         .unwrap()
         .to_string();
     assert!(e.contains("in no view cell"), "{e}");
-    let e = draw(&args(&["--cell", "5"]), &scene)
+    let e = draw(&args(&["--cell", "5"]), &scene, None)
         .err()
         .unwrap()
         .to_string();
     assert!(e.contains("--cell 5"), "{e}");
-    let e = draw(&args(&["--layer", "cullmap"]), &scene)
+    let e = draw(&args(&["--layer", "cullmap"]), &scene, None)
         .err()
         .unwrap()
         .to_string();
     assert!(e.contains("--cell N or --at"), "{e}");
-    let e = draw(&args(&["--cell", "0", "--radius=-3"]), &scene)
+    let e = draw(&args(&["--cell", "0", "--radius=-3"]), &scene, None)
         .err()
         .unwrap()
         .to_string();

@@ -7,7 +7,7 @@ use citypvs::model::Rect;
 use citypvs::prepare::Scene;
 use citypvs::render::palette::{self, Rgb};
 use citypvs::render::{Focus, Picture, Rendered, cell_containing, render, view_around};
-use citypvs::visibility::{VisibilityParams, cell_cull_map, compute_pvs};
+use citypvs::visibility::VisibilityEngine;
 use common::*;
 use glam::DVec2;
 
@@ -33,8 +33,18 @@ fn street() -> Scene {
     )
 }
 
-fn params(scene: &Scene) -> VisibilityParams {
-    VisibilityParams::for_eps(scene.eps)
+fn all_sets(scene: &Scene) -> Vec<Vec<u32>> {
+    VisibilityEngine::new(scene)
+        .unwrap()
+        .solve_all(&|_| {})
+        .unwrap()
+}
+
+fn cull_map(scene: &Scene, cell: usize, radius: f64) -> citypvs::visibility::CullMapImage {
+    VisibilityEngine::new(scene)
+        .unwrap()
+        .cull_map(cell, radius)
+        .unwrap()
 }
 
 fn centre(scene: &Scene, b: usize) -> DVec2 {
@@ -69,7 +79,7 @@ fn brightness(c: Rgb) -> u32 {
 #[test]
 fn chosen_cell_shows_visible_and_culled_buildings_apart() {
     let scene = street();
-    let focus = Focus::compute(&scene, &params(&scene), 0).unwrap();
+    let focus = Focus::compute(&scene, 0).unwrap();
     assert!(focus.sees(WALL) && focus.sees(SIDE) && !focus.sees(HOUSE));
     let r = render(&Picture {
         focus: Some(&focus),
@@ -97,13 +107,9 @@ fn chosen_cell_shows_visible_and_culled_buildings_apart() {
 #[test]
 fn one_cell_computed_alone_sees_what_the_bake_gives_it() {
     let scene = street();
-    let p = params(&scene);
-    let all = compute_pvs(&scene, &p, &|_| {}).unwrap();
+    let all = all_sets(&scene);
     for c in 0..scene.cells.triangles.len() {
-        assert_eq!(
-            Focus::compute(&scene, &p, c).unwrap().visible,
-            all.visible[c]
-        );
+        assert_eq!(Focus::compute(&scene, c).unwrap().visible, all[c]);
     }
 }
 
@@ -111,7 +117,7 @@ fn one_cell_computed_alone_sees_what_the_bake_gives_it() {
 fn colours_follow_the_given_visible_set() {
     let scene = street();
     // A set as if read from a .pvs file: only the house.
-    let focus = Focus::new(&scene, &params(&scene), 1, vec![HOUSE as u32]).unwrap();
+    let focus = Focus::new(&scene, 1, vec![HOUSE as u32]).unwrap();
     let r = render(&Picture {
         focus: Some(&focus),
         ..picture(&scene)
@@ -126,9 +132,8 @@ fn colours_follow_the_given_visible_set() {
 #[test]
 fn cull_map_heat_lies_where_the_wall_shadows() {
     let scene = street();
-    let p = params(&scene);
-    let focus = Focus::compute(&scene, &p, 0).unwrap();
-    let image = cell_cull_map(&scene, &p, 0, 60.0);
+    let focus = Focus::compute(&scene, 0).unwrap();
+    let image = cull_map(&scene, 0, 60.0);
     let f_at = |q: DVec2| {
         let i = ((q.x - image.origin.x) / image.pixel).floor() as usize;
         let j = ((q.y - image.origin.y) / image.pixel).floor() as usize;
@@ -166,9 +171,8 @@ fn cull_map_heat_lies_where_the_wall_shadows() {
 #[test]
 fn png_keeps_the_map_colours_exactly() {
     let scene = street();
-    let p = params(&scene);
-    let focus = Focus::compute(&scene, &p, 0).unwrap();
-    let image = cell_cull_map(&scene, &p, 0, 60.0);
+    let focus = Focus::compute(&scene, 0).unwrap();
+    let image = cull_map(&scene, 0, 60.0);
     let r = render(&Picture {
         focus: Some(&focus),
         cull_map: Some(&image),
@@ -196,8 +200,7 @@ fn png_keeps_the_map_colours_exactly() {
 #[test]
 fn pvs_size_heat_map_colours_each_cell_by_its_set_size() {
     let scene = street();
-    let result = compute_pvs(&scene, &params(&scene), &|_| {}).unwrap();
-    let sizes: Vec<usize> = result.visible.iter().map(Vec::len).collect();
+    let sizes: Vec<usize> = all_sets(&scene).iter().map(Vec::len).collect();
     assert_ne!(sizes[0], sizes[1], "the two cells see different sets");
     let (lo, hi) = (*sizes.iter().min().unwrap(), *sizes.iter().max().unwrap());
     let r = render(&Picture {
@@ -263,9 +266,8 @@ fn zoomed_view_shows_only_the_square_around_the_cell() {
 #[test]
 fn same_picture_gives_the_same_bytes() {
     let scene = street();
-    let p = params(&scene);
-    let focus = Focus::compute(&scene, &p, 0).unwrap();
-    let image = cell_cull_map(&scene, &p, 0, 40.0);
+    let focus = Focus::compute(&scene, 0).unwrap();
+    let image = cull_map(&scene, 0, 40.0);
     let draw = || {
         render(&Picture {
             focus: Some(&focus),
@@ -283,17 +285,16 @@ fn same_picture_gives_the_same_bytes() {
         .num_threads(1)
         .build()
         .unwrap()
-        .install(|| Focus::compute(&scene, &p, 0).unwrap());
+        .install(|| Focus::compute(&scene, 0).unwrap());
     assert_eq!(single, focus);
 }
 
 #[test]
 fn bad_requests_are_errors_not_panics() {
     let scene = street();
-    let p = params(&scene);
-    let err = Focus::compute(&scene, &p, 2).unwrap_err().to_string();
+    let err = Focus::compute(&scene, 2).unwrap_err().to_string();
     assert!(err.contains("cell 2"), "{err}");
-    let err = Focus::new(&scene, &p, 0, vec![7]).unwrap_err().to_string();
+    let err = Focus::new(&scene, 0, vec![7]).unwrap_err().to_string();
     assert!(err.contains("object 7"), "{err}");
     let sizes = [1usize];
     assert!(

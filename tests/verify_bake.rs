@@ -11,9 +11,8 @@ use citypvs::bake::bake;
 use citypvs::generate::{GenerateParams, generate_geojson};
 use citypvs::input::{City, InputOptions, read_city, read_city_bytes};
 use citypvs::model::Polygon;
-use citypvs::prepare::{PrepareParams, prepare};
+use citypvs::prepare::prepare;
 use citypvs::verify::{VerifyOptions, VerifyReport, verify};
-use citypvs::visibility::VisibilityParams;
 use glam::DVec2;
 
 /// Cells judged per city in CI (all of them with CITYPVS_VERIFY_ALL).
@@ -31,18 +30,13 @@ fn bake_and_judge(
     seed: u64,
     region: Option<Polygon>,
 ) -> VerifyReport {
-    let mut params = PrepareParams::default();
-    params.cells.region = region;
-    let scene = prepare(city, &params).expect("prepare");
-    let vis = VisibilityParams::for_eps(scene.eps);
-    let (data, stats, _) = bake(
-        &scene,
-        &vis,
-        params.cells.max_edge,
-        params.cells.margin,
-        &|_| {},
-    )
-    .expect("bake");
+    let settings = citypvs::Settings::new(citypvs::RawSettings {
+        region,
+        ..Default::default()
+    })
+    .expect("settings");
+    let scene = prepare(city, &settings).expect("prepare");
+    let (data, stats, _) = bake(&scene, &|_| {}).expect("bake");
     let options = VerifyOptions {
         cells: cells_to_check(cells),
         samples: 64,
@@ -51,7 +45,7 @@ fn bake_and_judge(
     let report = verify(
         &scene.city.buildings,
         &data.cells,
-        vis.eye_height,
+        scene.settings.eye_height,
         &data.visible,
         &options,
     );

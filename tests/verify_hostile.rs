@@ -85,7 +85,8 @@ fn a_nan_eye_height_with_empty_sets_is_not_a_valid_bake() {
     assert_eq!(out.status.code(), Some(2), "{}", text(&out));
     let t = text(&out);
     assert!(
-        t.contains("nan.pvs: not a valid bake") && t.contains("eye height is NaN"),
+        t.contains("nan.pvs: the file's header is not a valid bake")
+            && t.contains("eye-height must be a positive number of metres, got NaN"),
         "{t}"
     );
     assert!(!t.contains("PASS"), "{t}");
@@ -97,16 +98,16 @@ fn other_impossible_headers_are_refused() {
     type Edit = fn(&mut PvsData);
     let edits: [(&str, Edit); 4] = [
         ("eps", |d| d.info.eps = 0.0),
-        ("pixel size", |d| d.info.pixel = 1e9),
-        ("eye height", |d| d.info.eye_height = -1.7),
-        ("max cell edge", |d| d.info.max_cell_edge = f64::INFINITY),
+        ("pixel", |d| d.info.pixel = 1e9),
+        ("eye-height", |d| d.info.eye_height = -1.7),
+        ("max-cell-edge", |d| d.info.max_cell_edge = f64::INFINITY),
     ];
     for (what, edit) in edits {
         tampered(dir.path(), "bad.pvs", edit);
         let out = verify(dir.path(), "bad.pvs", &[]);
         assert_eq!(out.status.code(), Some(2), "{what}: {}", text(&out));
         assert!(
-            text(&out).contains(&format!("header's {what}")),
+            text(&out).contains(&format!("not a valid bake: {what} ")),
             "{}",
             text(&out)
         );

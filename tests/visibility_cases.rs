@@ -2,14 +2,14 @@
 
 mod common;
 
-use citypvs::visibility::{VisibilityParams, compute_pvs};
+use citypvs::visibility::VisibilityEngine;
 use common::*;
 use glam::DVec2;
 
 fn pvs_ids(scene: &citypvs::prepare::Scene) -> Vec<String> {
-    let params = VisibilityParams::for_eps(scene.eps);
-    let result = compute_pvs(scene, &params, &|_| {}).unwrap();
-    result.visible[0]
+    VisibilityEngine::new(scene)
+        .unwrap()
+        .solve_cell(0)
         .iter()
         .map(|&i| scene.city.buildings[i as usize].id.clone())
         .collect()
@@ -135,14 +135,13 @@ fn far_buildings_behind_a_street_wall_are_culled_by_the_horizon() {
 
 #[test]
 fn pixel_size_that_breaks_the_bound_is_refused() {
-    let scene = hand_scene(
-        vec![block("a", 10.0, 10.0, 20.0, 20.0, 5.0)],
-        vec![cell()],
-        1.0,
-    );
-    let mut params = VisibilityParams::for_eps(1.0);
-    params.pixel = 1.5;
-    let err = compute_pvs(&scene, &params, &|_| {}).unwrap_err();
+    let err = citypvs::Settings::new(citypvs::RawSettings {
+        eps: Some(1.0),
+        pixel: Some(1.5),
+        ..Default::default()
+    })
+    .unwrap_err();
+    assert_eq!(err.kind(), &citypvs::ErrorKind::Setting("pixel"));
     assert!(
         err.message().contains("pixel * sqrt(2) / 2 <= eps"),
         "{err}"

@@ -7,11 +7,10 @@ use std::time::Instant;
 
 use clap::Args;
 
-use super::common::{InputArgs, SceneArgs};
+use super::common::{InputArgs, SceneArgs, ViewArgs};
 use crate::Result;
 use crate::input::{City, read_city, read_city_bytes};
 use crate::prepare::{StageTime, prepare};
-use crate::visibility::{DEFAULT_EYE_HEIGHT, VisibilityParams, default_pixel};
 
 /// Buildings in the embedded default city.
 pub const DEFAULT_CITY_BUILDINGS: usize = 400;
@@ -30,12 +29,8 @@ pub struct BakeArgs {
     pub input: InputArgs,
     #[command(flatten)]
     pub scene: SceneArgs,
-    /// Eye height in metres: view cells are prisms from the ground to this height.
-    #[arg(long, default_value_t = DEFAULT_EYE_HEIGHT, value_name = "METRES")]
-    pub eye_height: f64,
-    /// Cull-map pixel size in metres [default: eps * sqrt(2), the largest with pixel * sqrt(2) / 2 <= eps].
-    #[arg(long, value_name = "METRES")]
-    pub pixel: Option<f64>,
+    #[command(flatten)]
+    pub view: ViewArgs,
     /// Worker threads [default: all cores]. The output is the same for any number.
     #[arg(long, value_name = "N")]
     pub threads: Option<usize>,
@@ -119,14 +114,8 @@ fn run_in_pool(args: &BakeArgs, threads: usize) -> Result<i32> {
     let read_seconds = t.elapsed().as_secs_f64();
     // After reading (a missing input is the first thing to say), before the work.
     crate::atomic::check_output(&output, &inputs)?;
-    let prepare_params = args.scene.params(&city.frame)?;
-    let params = VisibilityParams {
-        eye_height: args.eye_height,
-        pixel: args.pixel.unwrap_or_else(|| default_pixel(args.scene.eps)),
-        ..VisibilityParams::for_eps(args.scene.eps)
-    };
-    crate::visibility::check_pixel(args.scene.eps, params.pixel)?;
-    let mut scene = prepare(city, &prepare_params)?;
+    let settings = super::common::settings(&args.scene, Some(&args.view), &city.frame)?;
+    let mut scene = prepare(city, &settings)?;
     scene.timings.insert(
         0,
         StageTime {
@@ -141,13 +130,7 @@ fn run_in_pool(args: &BakeArgs, threads: usize) -> Result<i32> {
             b.inc(n)
         }
     };
-    let (data, stats, visibility_time) = crate::bake::bake(
-        &scene,
-        &params,
-        args.scene.max_cell_edge,
-        args.scene.margin,
-        &tick,
-    )?;
+    let (data, stats, visibility_time) = crate::bake::bake(&scene, &tick)?;
     if let Some(b) = &bar {
         b.finish_and_clear();
     }

@@ -8,8 +8,8 @@ use clap::Args;
 
 use crate::Result;
 use crate::input::{InputOptions, read_city_bytes};
-use crate::prepare::{PrepareParams, prepare};
-use crate::visibility::VisibilityParams;
+use crate::prepare::prepare;
+use crate::settings::Settings;
 
 #[derive(Args, Debug)]
 pub struct BenchArgs {
@@ -25,10 +25,17 @@ pub struct BenchArgs {
     /// Print one JSON object per city instead of a table.
     #[arg(long)]
     pub json: bool,
+    /// Save the figures to this JSON file, to compare later runs against.
+    #[arg(long, value_name = "FILE")]
+    pub save: Option<std::path::PathBuf>,
+    /// Compare with the figures saved by an earlier `bench --save FILE`:
+    /// prints both runs side by side with their ratio.
+    #[arg(long, value_name = "FILE")]
+    pub baseline: Option<std::path::PathBuf>,
 }
 
 /// Figures for one city.
-#[derive(serde::Serialize)]
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug)]
 struct Row {
     buildings: usize,
     cells: usize,
@@ -47,6 +54,83 @@ struct Row {
     peak_memory_bytes_so_far: Option<u64>,
 }
 
+/// What `--save` writes.
+#[derive(serde::Serialize, serde::Deserialize)]
+struct Saved {
+    tool_version: String,
+    seed: u64,
+    threads: usize,
+    rows: Vec<Row>,
+}
+
+fn read_baseline(path: &std::path::Path) -> Result<Saved> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| crate::Error::io(format!("{}: cannot read: {e}", path.display())))?;
+    serde_json::from_str(&text).map_err(|e| {
+        crate::Error::input(format!(
+            "{}: not a file written by `citypvs bench --save`: {e}",
+            path.display()
+        ))
+    })
+}
+
+/// The figures compared with a baseline, and whether lower is better.
+const COMPARED: [(&str, bool); 6] = [
+    ("bake_seconds", true),
+    ("cells_per_second", false),
+    ("mean_visible", true),
+    ("bytes_per_cell", true),
+    ("peak_memory_bytes_so_far", true),
+    ("cells", true),
+];
+
+fn figure(row: &Row, name: &str) -> f64 {
+    match name {
+        "bake_seconds" => row.bake_seconds,
+        "cells_per_second" => row.cells_per_second,
+        "mean_visible" => row.mean_visible,
+        "bytes_per_cell" => row.bytes_per_cell,
+        "peak_memory_bytes_so_far" => row.peak_memory_bytes_so_far.unwrap_or(0) as f64 / 1048576.0,
+        _ => row.cells as f64,
+    }
+}
+
+/// Print this run beside the baseline's row for the same city size.
+fn print_comparison(base: &Saved, row: &Row) {
+    let Some(old) = base.rows.iter().find(|r| r.buildings == row.buildings) else {
+        println!("  (no baseline figures for {} buildings)", row.buildings);
+        return;
+    };
+    println!(
+        "  {:<26} {:>12} {:>12} {:>8}",
+        format!("{} buildings vs baseline", row.buildings),
+        "baseline",
+        "now",
+        "now/base"
+    );
+    for (name, lower_is_better) in COMPARED {
+        let (a, b) = (figure(old, name), figure(row, name));
+        let ratio = if a != 0.0 { b / a } else { f64::NAN };
+        let worse = if lower_is_better {
+            ratio > 1.05
+        } else {
+            ratio < 0.95
+        };
+        println!(
+            "  {:<26} {:>12.2} {:>12.2} {:>7.2}x{}",
+            if name == "peak_memory_bytes_so_far" {
+                "peak_memory_mib"
+            } else {
+                name
+            },
+            a,
+            b,
+            ratio,
+            if worse { "  (worse)" } else { "" }
+        );
+    }
+}
+
 pub fn run(args: &BenchArgs) -> Result<i32> {
     let max = super::generate::MAX_BUILDINGS;
     if let Some(&n) = args.buildings.iter().find(|&&n| n == 0 || n > max) {
@@ -55,6 +139,11 @@ pub fn run(args: &BenchArgs) -> Result<i32> {
         )));
     }
     let pool = super::common::thread_pool(args.threads)?;
+    let baseline = match &args.baseline {
+        Some(p) => Some(read_baseline(p)?),
+        None => None,
+    };
+    let mut rows = Vec::new();
     if !args.json {
         println!(
             "{:>9} {:>8} {:>9} {:>9} {:>9} {:>10} {:>9} {:>8} {:>7} {:>9}",
@@ -71,7 +160,7 @@ pub fn run(args: &BenchArgs) -> Result<i32> {
         );
     }
     let dir = tempfile::tempdir()
-        .map_err(|e| crate::Error::new(format!("cannot make a temporary folder: {e}")))?;
+        .map_err(|e| crate::Error::io(format!("cannot make a temporary folder: {e}")))?;
     for &n in &args.buildings {
         let text = crate::generate::generate_geojson(&crate::generate::GenerateParams {
             buildings: n,
@@ -82,21 +171,11 @@ pub fn run(args: &BenchArgs) -> Result<i32> {
             &format!("<generated {n}>"),
             &InputOptions::default(),
         )?;
-        let params = PrepareParams::default();
         let t = Instant::now();
-        let scene = prepare(city, &params)?;
+        let scene = pool.install(|| prepare(city, &Settings::default()))?;
         let prepare_seconds = t.elapsed().as_secs_f64();
-        let vis = VisibilityParams::for_eps(params.eps);
         let t = Instant::now();
-        let (data, stats, _) = pool.install(|| {
-            crate::bake::bake(
-                &scene,
-                &vis,
-                params.cells.max_edge,
-                params.cells.margin,
-                &|_| {},
-            )
-        })?;
+        let (data, stats, _) = pool.install(|| crate::bake::bake(&scene, &|_| {}))?;
         let bake_seconds = t.elapsed().as_secs_f64();
         let written = crate::pvs::write_pvs(&dir.path().join(format!("bench-{n}.pvs")), &data)?;
         let cells = stats.cells.max(1) as f64;
@@ -134,6 +213,35 @@ pub fn run(args: &BenchArgs) -> Result<i32> {
                 row.peak_memory_bytes_so_far.unwrap_or(0) as f64 / 1048576.0
             );
         }
+        if let Some(base) = &baseline {
+            if args.json {
+                let old = base.rows.iter().find(|r| r.buildings == row.buildings);
+                let ratios: serde_json::Map<String, serde_json::Value> = COMPARED
+                    .iter()
+                    .filter_map(|&(name, _)| {
+                        let a = figure(old?, name);
+                        (a != 0.0).then(|| (name.to_string(), (figure(&row, name) / a).into()))
+                    })
+                    .collect();
+                println!(
+                    "{}",
+                    serde_json::json!({ "buildings": row.buildings, "baseline": old, "ratio_now_to_baseline": ratios })
+                );
+            } else {
+                print_comparison(base, &row);
+            }
+        }
+        rows.push(row);
+    }
+    if let Some(path) = &args.save {
+        let saved = Saved {
+            tool_version: env!("CARGO_PKG_VERSION").to_string(),
+            seed: args.seed,
+            threads: pool.current_num_threads(),
+            rows,
+        };
+        let text = serde_json::to_string_pretty(&saved).expect("figures serialise");
+        crate::atomic::write_atomically(path, text.as_bytes())?;
     }
     Ok(0)
 }

@@ -6,9 +6,8 @@ use std::path::PathBuf;
 use clap::Args;
 
 use crate::Result;
-use crate::cells::{CellParams, DEFAULT_MARGIN, DEFAULT_MAX_CELL_EDGE};
 use crate::input::{DEFAULT_HEIGHT, Format, InputOptions};
-use crate::prepare::{DEFAULT_EPS, PrepareParams};
+use crate::settings::{RawSettings, Settings};
 
 /// How to read the city file.
 #[derive(Args, Debug, Clone)]
@@ -39,51 +38,99 @@ impl InputArgs {
     }
 }
 
-/// How to merge, shrink and cut the city into cells.
-#[derive(Args, Debug, Clone)]
+/// How to merge, shrink and cut the city into cells. Every value left out
+/// takes the default of [`crate::settings`].
+#[derive(Args, Debug, Clone, Default)]
 pub struct SceneArgs {
-    /// Erosion distance eps in metres; sample spacing and pixel size follow from it.
-    #[arg(long, default_value_t = DEFAULT_EPS, value_name = "METRES")]
-    pub eps: f64,
-    /// Longest allowed view-cell edge in metres.
-    #[arg(long, default_value_t = DEFAULT_MAX_CELL_EDGE, value_name = "METRES")]
-    pub max_cell_edge: f64,
-    /// Margin in metres added around the footprints' bounding box.
-    #[arg(long, default_value_t = DEFAULT_MARGIN, value_name = "METRES")]
-    pub margin: f64,
+    /// Erosion distance eps in metres; sample spacing and pixel size follow from it [default: 1].
+    #[arg(long, value_name = "METRES")]
+    pub eps: Option<f64>,
+    /// Longest allowed view-cell edge in metres [default: 30].
+    #[arg(long, value_name = "METRES")]
+    pub max_cell_edge: Option<f64>,
+    /// Margin in metres added around the footprints' bounding box [default: 50].
+    #[arg(long, value_name = "METRES")]
+    pub margin: Option<f64>,
     /// A GeoJSON polygon (in the city's frame) to use as region of interest.
     #[arg(long, value_name = "FILE")]
     pub region: Option<PathBuf>,
 }
 
+/// How the bake looks from each cell. Every value left out takes the
+/// default of [`crate::settings`].
+#[derive(Args, Debug, Clone, Default)]
+pub struct ViewArgs {
+    /// Eye height in metres: view cells are prisms from the ground to this height [default: 1.7].
+    #[arg(long, value_name = "METRES")]
+    pub eye_height: Option<f64>,
+    /// Cull-map pixel size in metres [default: eps * sqrt(2), the largest with pixel * sqrt(2) / 2 <= eps].
+    #[arg(long, value_name = "METRES")]
+    pub pixel: Option<f64>,
+    /// Half-size in metres of the near-field cull map drawn around each sample [default: 48].
+    #[arg(long, value_name = "METRES")]
+    pub near_field: Option<f64>,
+}
+
 impl SceneArgs {
-    /// Parameters for [`crate::prepare::prepare`]; reads the region file if any.
-    pub fn params(&self, frame: &crate::input::Frame) -> Result<PrepareParams> {
-        let region = match &self.region {
-            Some(path) => Some(crate::input::read_region(path, frame)?),
-            None => None,
-        };
-        if !(self.max_cell_edge > 0.0 && self.max_cell_edge.is_finite()) {
-            return Err(crate::Error::new(format!(
-                "--max-cell-edge must be a positive number of metres, got {}",
-                self.max_cell_edge
-            )));
+    /// The flags of this group that were given, as `--name`.
+    pub fn given(&self) -> Vec<&'static str> {
+        let mut out = Vec::new();
+        if self.eps.is_some() {
+            out.push("--eps");
         }
-        if !(self.margin >= 0.0 && self.margin.is_finite()) {
-            return Err(crate::Error::new(format!(
-                "--margin must be zero or a positive number of metres, got {}",
-                self.margin
-            )));
+        if self.max_cell_edge.is_some() {
+            out.push("--max-cell-edge");
         }
-        Ok(PrepareParams {
-            eps: self.eps,
-            cells: CellParams {
-                margin: self.margin,
-                max_edge: self.max_cell_edge,
-                region,
-            },
-        })
+        if self.margin.is_some() {
+            out.push("--margin");
+        }
+        out
     }
+
+    /// The region polygon in local metres, if one was given.
+    pub fn region(&self, frame: &crate::input::Frame) -> Result<Option<crate::model::Polygon>> {
+        match &self.region {
+            Some(path) => Ok(Some(crate::input::read_region(path, frame)?)),
+            None => Ok(None),
+        }
+    }
+}
+
+impl ViewArgs {
+    /// The flags of this group that were given, as `--name`.
+    pub fn given(&self) -> Vec<&'static str> {
+        let mut out = Vec::new();
+        if self.eye_height.is_some() {
+            out.push("--eye-height");
+        }
+        if self.pixel.is_some() {
+            out.push("--pixel");
+        }
+        if self.near_field.is_some() {
+            out.push("--near-field");
+        }
+        out
+    }
+}
+
+/// Validate the scene (and view) flags once into the settings; reads the
+/// region file if any.
+pub fn settings(
+    scene: &SceneArgs,
+    view: Option<&ViewArgs>,
+    frame: &crate::input::Frame,
+) -> Result<Settings> {
+    let view = view.cloned().unwrap_or_default();
+    Settings::new(RawSettings {
+        eps: scene.eps,
+        pixel: view.pixel,
+        eye_height: view.eye_height,
+        max_cell_edge: scene.max_cell_edge,
+        margin: scene.margin,
+        near_field: view.near_field,
+        min_gap: None,
+        region: scene.region(frame)?,
+    })
 }
 
 /// A progress bar on standard error counting `total` `unit`s (with rate and
@@ -114,7 +161,7 @@ pub fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
     if let Some(n) = threads
         && (n == 0 || n > max)
     {
-        return Err(crate::Error::new(format!(
+        return Err(crate::Error::usage(format!(
             "--threads must be between 1 and {max} (4 per core, at most 256) on this machine, got {n}"
         )));
     }
@@ -122,7 +169,7 @@ pub fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
-        .map_err(|e| crate::Error::new(format!("cannot start {threads} worker threads: {e}")))
+        .map_err(|e| crate::Error::usage(format!("cannot start {threads} worker threads: {e}")))
 }
 
 /// Where a command prints its summary: standard output, or standard error

@@ -26,7 +26,7 @@ pub struct GenerateArgs {
 
 pub fn run(args: &GenerateArgs) -> Result<i32> {
     if args.buildings == 0 || args.buildings > MAX_BUILDINGS {
-        return Err(crate::Error::new(format!(
+        return Err(crate::Error::usage(format!(
             "--buildings must be between 1 and {MAX_BUILDINGS}, got {}",
             args.buildings
         )));

@@ -47,8 +47,8 @@ pub fn run(args: &PrepareArgs) -> Result<i32> {
     for output in &outputs {
         crate::atomic::check_output(output, &inputs)?;
     }
-    let params = args.scene.params(&city.frame)?;
-    let mut scene = prepare(city, &params)?;
+    let settings = super::common::settings(&args.scene, None, &city.frame)?;
+    let mut scene = prepare(city, &settings)?;
     scene.timings.insert(
         0,
         StageTime {

@@ -7,17 +7,12 @@ use std::path::{Path, PathBuf};
 
 use clap::{Args, ValueEnum};
 
-use super::common::{InputArgs, SceneArgs};
+use super::common::{InputArgs, SceneArgs, ViewArgs};
 use crate::input::read_city;
 use crate::prepare::{Scene, prepare};
 use crate::pvs::PvsReader;
-use crate::render::{DEFAULT_SIZE, Focus, Picture, Rendered, cell_containing, render, view_around};
-use crate::visibility::{DEFAULT_EYE_HEIGHT, VisibilityParams, cell_cull_map, compute_pvs};
+use crate::render::{DEFAULT_SIZE, Drawing, Request, cell_containing};
 use crate::{Error, Result};
-
-/// Half-size in metres of the cull map drawn around the chosen cell when
-/// no --radius is given.
-pub const DEFAULT_CULL_MAP_RADIUS: f64 = 160.0;
 
 /// Extra picture layers.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -35,10 +30,12 @@ pub struct RenderArgs {
     /// Output PNG file.
     #[arg(short, long, value_name = "FILE")]
     pub output: PathBuf,
-    /// A .pvs file baked from the same city with the same scene options: the
-    /// visible sets, eye height and pixel size are read from it. Without it
-    /// the chosen cell's set (and with --layer pvs-size every cell's) is
-    /// computed here with the bake's code.
+    /// A .pvs file baked from the same city: the settings it was baked with
+    /// (eps, cell edge, margin, eye height, pixel) and the visible sets are
+    /// read from it, so scene and view flags cannot be given with it (only
+    /// --region, which must be the bake's). Without it the chosen cell's set
+    /// (and with --layer pvs-size every cell's) is computed here with the
+    /// bake's code.
     #[arg(long, value_name = "FILE")]
     pub pvs: Option<PathBuf>,
     /// Show this cell (numbered from 0, as in `inspect`) and what it sees.
@@ -60,19 +57,18 @@ pub struct RenderArgs {
     /// 160 m cull map].
     #[arg(long, value_name = "METRES")]
     pub radius: Option<f64>,
-    /// Eye height in metres when there is no --pvs (a .pvs file brings its own).
-    #[arg(long, default_value_t = DEFAULT_EYE_HEIGHT, value_name = "METRES", conflicts_with = "pvs")]
-    pub eye_height: f64,
     #[command(flatten)]
     pub input: InputArgs,
     #[command(flatten)]
     pub scene: SceneArgs,
+    #[command(flatten)]
+    pub view: ViewArgs,
 }
 
 /// Parse "X,Y" into two finite numbers.
 fn parse_point(text: &str) -> Result<(f64, f64)> {
     let bad = || {
-        Error::new(format!(
+        Error::usage(format!(
             "--at must be two numbers X,Y (e.g. --at=26.94,60.47), got \"{text}\""
         ))
     };
@@ -85,42 +81,51 @@ fn parse_point(text: &str) -> Result<(f64, f64)> {
     Ok((x, y))
 }
 
-/// Open the .pvs file and make sure it was baked from this scene.
-fn open_pvs(path: &Path, scene: &Scene, args: &RenderArgs) -> Result<PvsReader> {
-    let reader = PvsReader::open(path)?;
+/// Check that the .pvs file was baked from this scene (prepared with the
+/// file's own settings).
+fn check_pvs(path: &Path, reader: &PvsReader, scene: &Scene, args: &RenderArgs) -> Result<()> {
     let info = reader.info();
     if info.source_hash != scene.city.source_hash {
-        return Err(Error::new(format!(
+        return Err(Error::mismatch(format!(
             "{} was baked from a different input than {} (the SHA-256 of the input differs)",
             path.display(),
             args.city.display()
+        )));
+    }
+    let baked = crate::bake::settings_of(info, scene.settings.region.clone())?;
+    if baked != scene.settings {
+        return Err(Error::mismatch(format!(
+            "{} was baked with eps {}, max cell edge {}, margin {}, eye height {}, pixel {}, but the scene was \
+             prepared with eps {}, max cell edge {}, margin {}, eye height {}, pixel {}",
+            path.display(),
+            baked.eps,
+            baked.max_cell_edge,
+            baked.margin,
+            baked.eye_height,
+            baked.pixel,
+            scene.settings.eps,
+            scene.settings.max_cell_edge,
+            scene.settings.margin,
+            scene.settings.eye_height,
+            scene.settings.pixel
         )));
     }
     let ids_match = reader
         .object_ids()
         .iter()
         .eq(scene.city.buildings.iter().map(|b| &b.id));
-    if !ids_match
-        || info.eps != scene.eps
-        || reader.cell_triangles() != scene.cells.triangles.as_slice()
-    {
-        return Err(Error::new(format!(
-            "{}: its {} cells and {} objects (eps {}) are not the {} cells and {} buildings (eps {}) \
-             prepared here; it was baked with --eps {} --max-cell-edge {} --margin {}: pass the same scene options \
-             (and the same --default-height, --region and --metric)",
+    if !ids_match || reader.cell_triangles() != scene.cells.triangles.as_slice() {
+        return Err(Error::mismatch(format!(
+            "{}: its {} cells and {} objects are not the {} cells and {} buildings prepared here with its \
+             settings: pass the same --default-height, --region and --metric as the bake",
             path.display(),
             reader.cell_count(),
             reader.object_ids().len(),
-            info.eps,
             scene.cells.triangles.len(),
             scene.city.buildings.len(),
-            scene.eps,
-            info.eps,
-            info.max_cell_edge,
-            info.margin
         )));
     }
-    Ok(reader)
+    Ok(())
 }
 
 fn chosen_cell(
@@ -131,7 +136,7 @@ fn chosen_cell(
     if let Some(cell) = args.cell {
         let cells = scene.cells.triangles.len();
         if cell >= cells {
-            return Err(Error::new(format!(
+            return Err(Error::usage(format!(
                 "--cell {cell} does not exist: {} has {cells} cells, numbered from 0",
                 args.city.display()
             )));
@@ -148,7 +153,7 @@ fn chosen_cell(
         None => cell_containing(scene, local),
     };
     found.map(Some).ok_or_else(|| {
-        Error::new(format!(
+        Error::usage(format!(
             "--at {x},{y} (local {:.1} m east, {:.1} m north) is in no view cell: it is inside a \
              building or outside the region",
             local.x, local.y
@@ -161,106 +166,44 @@ fn check_args(args: &RenderArgs) -> Result<()> {
     if let Some(r) = args.radius
         && !(r > 0.0 && r.is_finite())
     {
-        return Err(Error::new(format!(
+        return Err(Error::usage(format!(
             "--radius must be a positive number of metres, got {r}"
         )));
     }
     let has_cell = args.cell.is_some() || args.at.is_some();
     if !has_cell && (args.layer.contains(&Layer::Cullmap) || args.radius.is_some()) {
-        return Err(Error::new(
+        return Err(Error::usage(
             "--layer cullmap and --radius need a chosen cell: add --cell N or --at X,Y".to_string(),
         ));
     }
     Ok(())
 }
 
-/// A drawn picture and the chosen cell it shows, if any.
-pub struct Drawing {
-    pub rendered: Rendered,
-    pub focus: Option<Focus>,
-}
-
-/// Everything after preparation: open the .pvs file if any, choose the
-/// cell, gather its visible set, cull map and the PVS sizes as asked, draw.
-pub fn draw(args: &RenderArgs, scene: &Scene) -> Result<Drawing> {
+/// Check the arguments and the .pvs file, choose the cell, and hand the
+/// request to [`crate::render::draw`].
+pub fn draw(args: &RenderArgs, scene: &Scene, reader: Option<&PvsReader>) -> Result<Drawing> {
     check_args(args)?;
-    let reader = match &args.pvs {
-        Some(path) => Some(open_pvs(path, scene, args)?),
-        None => None,
-    };
-    let params = match &reader {
-        Some(r) => VisibilityParams {
-            eye_height: r.info().eye_height,
-            pixel: r.info().pixel,
-            ..VisibilityParams::for_eps(scene.eps)
-        },
-        None => VisibilityParams {
-            eye_height: args.eye_height,
-            ..VisibilityParams::for_eps(scene.eps)
-        },
-    };
-    let cell = chosen_cell(args, scene, reader.as_ref())?;
-    let wants = |layer| args.layer.contains(&layer);
-    let pixel_from = match &args.pvs {
-        Some(path) => path.display().to_string(),
-        None => format!("--eps {}", scene.eps),
-    };
-    // The cull map is drawn, and the chosen cell's set computed here, on the
-    // cull-map pixel grid: refuse sizes that cannot fit before the work.
-    let uses_grid =
-        wants(Layer::Cullmap) || (reader.is_none() && (cell.is_some() || wants(Layer::PvsSize)));
-    if uses_grid {
-        let cull_map = match cell {
-            Some(c) if wants(Layer::Cullmap) => {
-                Some((c, args.radius.unwrap_or(DEFAULT_CULL_MAP_RADIUS)))
-            }
-            _ => None,
-        };
-        crate::render::check_pixel_counts(scene, params.pixel, &pixel_from, cull_map)?;
+    if let (Some(path), Some(r)) = (&args.pvs, reader) {
+        check_pvs(path, r, scene, args)?;
     }
-    let focus = match (cell, &reader) {
-        (Some(c), Some(r)) => Some(Focus::new(scene, &params, c, r.visible(c)?)?),
-        (Some(c), None) => Some(Focus::compute(scene, &params, c)?),
-        (None, _) => None,
-    };
-    let cull_map = match cell {
-        Some(c) if wants(Layer::Cullmap) => Some(cell_cull_map(
-            scene,
-            &params,
-            c,
-            args.radius.unwrap_or(DEFAULT_CULL_MAP_RADIUS),
-        )),
-        _ => None,
-    };
-    let pvs_sizes: Option<Vec<usize>> = match &reader {
-        _ if !wants(Layer::PvsSize) => None,
-        Some(r) => Some(
-            (0..r.cell_count())
-                .map(|c| r.visible(c).map(|v| v.len()))
-                .collect::<Result<_>>()?,
-        ),
-        None => {
-            eprintln!(
-                "computing the PVS of all {} cells (pass --pvs FILE to read them from a bake)",
-                scene.cells.triangles.len()
-            );
-            let result = compute_pvs(scene, &params, &|_| {})?;
-            Some(result.visible.iter().map(Vec::len).collect())
-        }
-    };
-    let view = match (cell, args.radius) {
-        (Some(c), Some(r)) => Some(view_around(scene, c, r)),
-        _ => None,
-    };
-    let rendered = render(&Picture {
+    let cell = chosen_cell(args, scene, reader)?;
+    if reader.is_none() && args.layer.contains(&Layer::PvsSize) {
+        eprintln!(
+            "computing the PVS of all {} cells (pass --pvs FILE to read them from a bake)",
+            scene.cells.triangles.len()
+        );
+    }
+    crate::render::draw(
         scene,
-        focus: focus.as_ref(),
-        cull_map: cull_map.as_ref(),
-        pvs_sizes: pvs_sizes.as_deref(),
-        view,
-        width: args.size,
-    })?;
-    Ok(Drawing { rendered, focus })
+        reader,
+        &Request {
+            cell,
+            cull_map: args.layer.contains(&Layer::Cullmap),
+            pvs_size: args.layer.contains(&Layer::PvsSize),
+            radius: args.radius,
+            width: args.size,
+        },
+    )
 }
 
 pub fn run(args: &RenderArgs) -> Result<i32> {
@@ -270,11 +213,40 @@ pub fn run(args: &RenderArgs) -> Result<i32> {
         .chain(args.scene.region.iter())
         .map(PathBuf::as_path)
         .collect();
-    let city = read_city(&args.city, &args.input.options())?;
     crate::atomic::check_output(&args.output, &inputs)?;
-    let prepare_params = args.scene.params(&city.frame)?;
-    let scene = prepare(city, &prepare_params)?;
-    let Drawing { rendered, focus } = draw(args, &scene)?;
+    let reader = match &args.pvs {
+        Some(path) => {
+            let given: Vec<&str> = args
+                .scene
+                .given()
+                .into_iter()
+                .chain(args.view.given())
+                .collect();
+            if !given.is_empty() {
+                return Err(Error::usage(format!(
+                    "{} cannot be given with --pvs: the file's header holds the settings it was baked with",
+                    given.join(", ")
+                )));
+            }
+            Some(PvsReader::open(path)?)
+        }
+        None => None,
+    };
+    let city = read_city(&args.city, &args.input.options())?;
+    let region = args.scene.region(&city.frame)?;
+    let settings = match &reader {
+        Some(r) => crate::bake::settings_of(r.info(), region).map_err(|e| {
+            e.context(
+                args.pvs
+                    .as_ref()
+                    .expect("a reader comes from --pvs")
+                    .display(),
+            )
+        })?,
+        None => super::common::settings(&args.scene, Some(&args.view), &city.frame)?,
+    };
+    let scene = prepare(city, &settings)?;
+    let Drawing { rendered, focus } = draw(args, &scene, reader.as_ref())?;
     let png = rendered.png()?;
     crate::atomic::write_atomically(&args.output, &png)?;
     let mut out = super::common::summary_stream(&[&args.output]);

@@ -60,52 +60,6 @@ pub struct VerifyArgs {
     pub any_cells: bool,
 }
 
-/// Refuse a header no bake writes: settings that are not positive finite
-/// numbers, a pixel too large for its eps, an absurd eye height.
-fn check_header(info: &crate::pvs::BakeInfo, pvs_name: &str) -> Result<()> {
-    let bad = |what: &str, value: f64, rule: &str| {
-        Err(Error::new(format!(
-            "{pvs_name}: not a valid bake: its header's {what} is {value} ({rule})"
-        )))
-    };
-    let positive = |v: f64| v > 0.0 && v.is_finite();
-    if !positive(info.eps) {
-        return bad("eps", info.eps, "it must be a positive number of metres");
-    }
-    if !(positive(info.eye_height) && info.eye_height <= crate::input::height::MAX_HEIGHT) {
-        return bad(
-            "eye height",
-            info.eye_height,
-            "it must be a positive number of metres, at most 1000",
-        );
-    }
-    if !positive(info.pixel) || info.pixel * std::f64::consts::SQRT_2 / 2.0 > info.eps {
-        return bad(
-            "pixel size",
-            info.pixel,
-            &format!(
-                "it must be positive and at most eps * sqrt(2) = {}",
-                info.eps * std::f64::consts::SQRT_2
-            ),
-        );
-    }
-    if !positive(info.max_cell_edge) {
-        return bad(
-            "max cell edge",
-            info.max_cell_edge,
-            "it must be a positive number of metres",
-        );
-    }
-    if !(info.margin >= 0.0 && info.margin.is_finite()) {
-        return bad(
-            "margin",
-            info.margin,
-            "it must be zero or a positive number of metres",
-        );
-    }
-    Ok(())
-}
-
 /// The file's cells must be the ones `bake` makes for this city with the
 /// header's settings: same count, same triangles, in the same order.
 fn check_cells(
@@ -119,15 +73,8 @@ fn check_cells(
         Some(path) => Some(crate::input::read_region(path, &city.frame)?),
         None => None,
     };
-    let params = crate::prepare::PrepareParams {
-        eps: info.eps,
-        cells: crate::cells::CellParams {
-            margin: info.margin,
-            max_edge: info.max_cell_edge,
-            region,
-        },
-    };
-    let scene = crate::prepare::prepare(city.clone(), &params)?;
+    let settings = crate::bake::settings_of(info, region).map_err(|e| e.context(pvs_name))?;
+    let scene = crate::prepare::prepare(city.clone(), &settings)?;
     let ours = &scene.cells.triangles;
     let theirs = reader.cell_triangles();
     if ours.as_slice() == theirs {
@@ -137,7 +84,7 @@ fn check_cells(
         Some(c) => format!("cell {c} differs"),
         None => format!("{} cells against {}", theirs.len(), ours.len()),
     };
-    Err(Error::new(format!(
+    Err(Error::mismatch(format!(
         "{pvs_name}: its {} cells are not the {} cells prepared for {} with the file's settings \
          (--eps {} --max-cell-edge {} --margin {}{}; {differ}): a different city, input flags or --region, \
          or a file not made by `citypvs bake` (--any-cells judges its cells as they are)",
@@ -176,13 +123,13 @@ struct Verdict<'a> {
 
 pub fn run(args: &VerifyArgs) -> Result<i32> {
     if args.samples == 0 || args.samples > MAX_SAMPLES {
-        return Err(Error::new(format!(
+        return Err(Error::usage(format!(
             "--samples must be between 1 and {MAX_SAMPLES} viewpoints per cell, got {}",
             args.samples
         )));
     }
     if args.cells == 0 && !args.all {
-        return Err(Error::new("--cells must be at least 1"));
+        return Err(Error::usage("--cells must be at least 1"));
     }
     let pool = super::common::thread_pool(args.threads)?;
     pool.install(|| run_in_pool(args, pool.current_num_threads()))
@@ -193,14 +140,14 @@ fn run_in_pool(args: &VerifyArgs, threads: usize) -> Result<i32> {
     let pvs_name = args.pvs.display().to_string();
     let reader = PvsReader::open(&args.pvs)?;
     let info = reader.info();
-    check_header(info, &pvs_name)?;
+    crate::bake::settings_of(info, None).map_err(|e| e.context(&pvs_name))?;
     if reader.cell_count() == 0 {
-        return Err(Error::new(format!(
+        return Err(Error::mismatch(format!(
             "{pvs_name}: the file has no cells: there is nothing to check"
         )));
     }
     if info.frame != city.frame {
-        return Err(Error::new(format!(
+        return Err(Error::mismatch(format!(
             "{pvs_name}: baked in the frame \"{}\" but {} reads in \"{}\"; read the city with the flags the bake used",
             info.frame.describe(),
             args.city.display(),
@@ -219,7 +166,7 @@ fn run_in_pool(args: &VerifyArgs, threads: usize) -> Result<i32> {
         .enumerate()
         .map(|(k, id)| {
             by_id.get(id.as_str()).copied().ok_or_else(|| {
-                Error::new(format!(
+                Error::mismatch(format!(
                     "{pvs_name}: object {k} (id {id}) is not a building of {}: wrong city or wrong file",
                     args.city.display()
                 ))
@@ -227,7 +174,7 @@ fn run_in_pool(args: &VerifyArgs, threads: usize) -> Result<i32> {
         })
         .collect::<Result<Vec<u32>>>()?;
     if object_to_building.len() != city.buildings.len() {
-        return Err(Error::new(format!(
+        return Err(Error::mismatch(format!(
             "{pvs_name}: has {} objects but {} has {} buildings: wrong city or wrong file",
             object_to_building.len(),
             args.city.display(),
@@ -285,7 +232,7 @@ fn run_in_pool(args: &VerifyArgs, threads: usize) -> Result<i32> {
     }
     let judged = report.judged_viewpoints();
     if report.cells_checked == 0 || judged == 0 {
-        return Err(Error::new(format!(
+        return Err(Error::mismatch(format!(
             "{pvs_name}: nothing was judged: {} cells checked, {} viewpoints, all of them inside buildings \
              (the cells overlap the footprints: wrong city or wrong file?)",
             report.cells_checked, report.viewpoints

@@ -89,7 +89,7 @@ fn quantise(pixmap: &Pixmap, required: &[Rgb]) -> (Vec<Rgb8>, Vec<u8>) {
 /// `required` colours are kept exactly.
 pub fn encode_png(pixmap: &Pixmap, required: &[Rgb]) -> Result<Vec<u8>> {
     let (palette, indices) = quantise(pixmap, required);
-    let fail = |e: png::EncodingError| Error::new(format!("cannot encode the picture as PNG: {e}"));
+    let fail = |e: png::EncodingError| Error::io(format!("cannot encode the picture as PNG: {e}"));
     let mut out = Vec::new();
     {
         let mut encoder = png::Encoder::new(&mut out, pixmap.width(), pixmap.height());

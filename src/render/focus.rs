@@ -3,9 +3,8 @@
 
 use glam::DVec2;
 
-use crate::cells::Cells;
 use crate::prepare::Scene;
-use crate::visibility::{VisibilityParams, cell_samples, compute_pvs};
+use crate::visibility::VisibilityEngine;
 use crate::{Error, Result};
 
 /// A chosen cell and what it sees.
@@ -22,7 +21,7 @@ pub struct Focus {
 fn check_cell(scene: &Scene, cell: usize) -> Result<()> {
     let cells = scene.cells.triangles.len();
     if cell >= cells {
-        return Err(Error::new(format!(
+        return Err(Error::usage(format!(
             "cell {cell} does not exist (the scene has {cells} cells, numbered from 0)"
         )));
     }
@@ -32,28 +31,23 @@ fn check_cell(scene: &Scene, cell: usize) -> Result<()> {
 impl Focus {
     /// A focus on `cell` with a visible set found elsewhere (e.g. a `.pvs`
     /// file). The set must name existing buildings in ascending order.
-    pub fn new(
-        scene: &Scene,
-        params: &VisibilityParams,
-        cell: usize,
-        visible: Vec<u32>,
-    ) -> Result<Focus> {
+    pub fn new(scene: &Scene, cell: usize, visible: Vec<u32>) -> Result<Focus> {
         check_cell(scene, cell)?;
         let buildings = scene.city.buildings.len();
         if let Some(&bad) = visible.iter().find(|&&o| o as usize >= buildings) {
-            return Err(Error::new(format!(
+            return Err(Error::usage(format!(
                 "cell {cell}: visible object {bad} does not exist (the city has {buildings} buildings)"
             )));
         }
         if visible.windows(2).any(|w| w[0] >= w[1]) {
-            return Err(Error::new(format!(
+            return Err(Error::usage(format!(
                 "cell {cell}: the visible set is not in ascending order"
             )));
         }
-        let samples = cell_samples(scene, params, cell)
-            .into_iter()
-            .map(|s| s.truncate())
-            .collect();
+        let samples = crate::visibility::samples::cell_sample_points(
+            &scene.cells.triangles[cell],
+            scene.settings.sample_spacing(),
+        );
         Ok(Focus {
             cell,
             visible,
@@ -61,24 +55,11 @@ impl Focus {
         })
     }
 
-    /// A focus on `cell` with its PVS computed by the bake's code on a scene
-    /// holding only that cell (the same samples, so the same set).
-    pub fn compute(scene: &Scene, params: &VisibilityParams, cell: usize) -> Result<Focus> {
+    /// A focus on `cell` with its PVS computed by the bake's engine.
+    pub fn compute(scene: &Scene, cell: usize) -> Result<Focus> {
         check_cell(scene, cell)?;
-        let alone = Scene {
-            city: scene.city.clone(),
-            blocks: Vec::new(),
-            occluders: scene.occluders.clone(),
-            cells: Cells {
-                triangles: vec![scene.cells.triangles[cell]],
-                region: scene.cells.region.clone(),
-            },
-            eps: scene.eps,
-            timings: Vec::new(),
-        };
-        let mut result = compute_pvs(&alone, params, &|_| {})?;
-        let visible = result.visible.pop().unwrap_or_default();
-        Focus::new(scene, params, cell, visible)
+        let visible = VisibilityEngine::new(scene)?.solve_cell(cell);
+        Focus::new(scene, cell, visible)
     }
 
     /// True when building `b` is in the PVS.

@@ -15,6 +15,7 @@ pub mod font;
 mod legend;
 mod map;
 pub mod palette;
+mod request;
 pub mod viewport;
 
 use glam::DVec2;
@@ -27,6 +28,7 @@ use crate::{Error, Result};
 pub use focus::Focus;
 use legend::{Entry, Mark};
 use palette::Rgb;
+pub use request::{DEFAULT_CULL_MAP_RADIUS, Drawing, Request, draw};
 pub use viewport::Viewport;
 
 /// Default picture width in pixels.
@@ -35,69 +37,6 @@ pub const DEFAULT_SIZE: u32 = 1600;
 pub const MIN_SIZE: u32 = 200;
 /// Widest picture width accepted (a map up to twice as tall takes 0.5 GB).
 pub const MAX_SIZE: u32 = 8_000;
-
-/// Most pixels a cull map drawn under a picture may have (4096 x 4096;
-/// 64 MB of heights, twice over while it is made).
-pub const MAX_CULL_MAP_PIXELS: f64 = 16_777_216.0;
-
-/// Most pixels the buildings' footprints may cover on the cull-map grid when
-/// the cull map or a cell's visible set is computed for a picture (each is
-/// tested against the footprint).
-pub const MAX_FOOTPRINT_PIXELS: f64 = 1e8;
-
-/// Refuse, before any work, a cull-map pixel size that is not a positive
-/// number, or that makes the buildings' footprints or the cull map of
-/// `cell` with half-size `radius` metres more pixels than the limits.
-/// `pixel_from` says where the pixel size came from (a `.pvs` file's header,
-/// or `--eps`), for the message.
-pub fn check_pixel_counts(
-    scene: &Scene,
-    pixel: f64,
-    pixel_from: &str,
-    cull_map: Option<(usize, f64)>,
-) -> Result<()> {
-    if !(pixel > 0.0 && pixel.is_finite()) {
-        return Err(Error::new(format!(
-            "{pixel_from}: the cull-map pixel size {pixel} m is not a positive number of metres"
-        )));
-    }
-    let footprint_pixels: f64 = scene
-        .city
-        .buildings
-        .iter()
-        .map(|b| {
-            let r = multipolygon_bounds(&b.footprint);
-            (r.width() / pixel + 3.0) * (r.height() / pixel + 3.0)
-        })
-        .sum();
-    if footprint_pixels > MAX_FOOTPRINT_PIXELS {
-        return Err(Error::new(format!(
-            "{pixel_from}: a cull-map pixel of {pixel} m puts the {} buildings' footprints on {footprint_pixels:.3e} pixels, \
-             more than the {MAX_FOOTPRINT_PIXELS:.0e} a picture may test (a bake's pixel is eps * sqrt(2), {:.3} m for eps {})",
-            scene.city.buildings.len(),
-            crate::visibility::default_pixel(scene.eps),
-            scene.eps
-        )));
-    }
-    if let Some((cell, radius)) = cull_map {
-        let t = scene.cells.triangles[cell];
-        let rect = Rect::of_points(t.iter()).grown(radius);
-        let columns = (rect.max.x / pixel).floor() - (rect.min.x / pixel).floor() + 1.0;
-        let rows = (rect.max.y / pixel).floor() - (rect.min.y / pixel).floor() + 1.0;
-        let pixels = columns * rows;
-        if pixels.is_nan() || pixels > MAX_CULL_MAP_PIXELS {
-            let cell_size = rect.width().max(rect.height()) - 2.0 * radius;
-            let largest = ((MAX_CULL_MAP_PIXELS.sqrt() - 2.0) * pixel - cell_size) / 2.0;
-            return Err(Error::new(format!(
-                "--radius {radius} m makes cell {cell}'s cull map {columns:.0} x {rows:.0} pixels of {pixel:.3} m \
-                 ({pixels:.3e} pixels, {:.3e} bytes), more than the {MAX_CULL_MAP_PIXELS:.0} accepted: give --radius {:.0} or less",
-                pixels * 8.0,
-                largest.floor().max(0.0)
-            )));
-        }
-    }
-    Ok(())
-}
 
 /// Everything one picture shows.
 #[derive(Clone, Copy, Debug)]
@@ -180,7 +119,7 @@ pub fn cell_containing(scene: &Scene, p: DVec2) -> Option<usize> {
 fn check(picture: &Picture) -> Result<Rect> {
     let scene = picture.scene;
     if !(MIN_SIZE..=MAX_SIZE).contains(&picture.width) {
-        return Err(Error::new(format!(
+        return Err(Error::usage(format!(
             "--size must be between {MIN_SIZE} and {MAX_SIZE} pixels, got {}",
             picture.width
         )));
@@ -188,7 +127,7 @@ fn check(picture: &Picture) -> Result<Rect> {
     if let Some(f) = picture.focus
         && f.cell >= scene.cells.triangles.len()
     {
-        return Err(Error::new(format!(
+        return Err(Error::usage(format!(
             "cell {} does not exist (the scene has {} cells)",
             f.cell,
             scene.cells.triangles.len()
@@ -197,7 +136,7 @@ fn check(picture: &Picture) -> Result<Rect> {
     if let Some(sizes) = picture.pvs_sizes
         && sizes.len() != scene.cells.triangles.len()
     {
-        return Err(Error::new(format!(
+        return Err(Error::usage(format!(
             "{} PVS sizes given for {} cells",
             sizes.len(),
             scene.cells.triangles.len()
@@ -206,7 +145,7 @@ fn check(picture: &Picture) -> Result<Rect> {
     if let Some(c) = picture.cull_map
         && (c.heights.len() != c.width * c.height || c.pixel.is_nan() || c.pixel <= 0.0)
     {
-        return Err(Error::new(format!(
+        return Err(Error::usage(format!(
             "the cull map's {} heights do not fill {} x {} pixels of {} m",
             c.heights.len(),
             c.width,
@@ -217,7 +156,7 @@ fn check(picture: &Picture) -> Result<Rect> {
     let view = picture.view.unwrap_or_else(|| scene_bounds(scene));
     let finite = [view.min, view.max].iter().all(|p| p.is_finite());
     if !finite || view.is_empty() || view.width() <= 0.0 && view.height() <= 0.0 {
-        return Err(Error::new(
+        return Err(Error::usage(
             "nothing to draw: the scene has no cells and no buildings".to_string(),
         ));
     }
@@ -332,7 +271,7 @@ pub fn render(picture: &Picture) -> Result<Rendered> {
     });
 
     let mut map = Pixmap::new(vp.width, vp.height).ok_or_else(|| {
-        Error::new(format!(
+        Error::usage(format!(
             "cannot make a {} x {} picture",
             vp.width, vp.height
         ))
@@ -381,7 +320,7 @@ pub fn render(picture: &Picture) -> Result<Rendered> {
     let layout = legend::layout(&entries, width, vp.scale);
     let total = vp.height + layout.height();
     let mut pixmap = Pixmap::new(width, total)
-        .ok_or_else(|| Error::new(format!("cannot make a {width} x {total} picture")))?;
+        .ok_or_else(|| Error::usage(format!("cannot make a {width} x {total} picture")))?;
     pixmap.fill(palette::PANEL.color());
     pixmap.draw_pixmap(
         0,

@@ -72,14 +72,38 @@ impl MeshTopology {
 /// Points strictly between `a` and `b` such that, with `a` and `b`, no two
 /// consecutive points are more than `max_spacing` apart.
 pub fn interior_samples(a: DVec2, b: DVec2, max_spacing: f64) -> Vec<DVec2> {
+    let segments = segment_count(a, b, max_spacing);
+    (1..segments)
+        .map(|i| a.lerp(b, i as f64 / segments as f64))
+        .collect()
+}
+
+/// The sample points of one cell's top edges, seen from above: each corner
+/// followed by the points along the edge that starts there.
+pub fn cell_sample_points(t: &[DVec2; 3], max_spacing: f64) -> Vec<DVec2> {
+    let mut out = Vec::new();
+    for k in 0..3 {
+        let (a, b) = (t[k], t[(k + 1) % 3]);
+        out.push(a);
+        out.extend(interior_samples(a, b, max_spacing));
+    }
+    out
+}
+
+/// How many points [`interior_samples`] gives.
+pub fn interior_sample_count(a: DVec2, b: DVec2, max_spacing: f64) -> usize {
+    segment_count(a, b, max_spacing) - 1
+}
+
+/// The number of equal pieces the edge from `a` to `b` is cut into so that
+/// none is longer than `max_spacing`.
+fn segment_count(a: DVec2, b: DVec2, max_spacing: f64) -> usize {
     let len = a.distance(b);
     let mut segments = (len / max_spacing).ceil().max(1.0) as usize;
     if len / segments as f64 > max_spacing {
         segments += 1;
     }
-    (1..segments)
-        .map(|i| a.lerp(b, i as f64 / segments as f64))
-        .collect()
+    segments
 }
 
 #[cfg(test)]

@@ -95,6 +95,14 @@ impl<'a> Solver<'a> {
         self.stamp
     }
 
+    /// Add to `visible` every object not hidden from any of `points` (the
+    /// samples of one unit, in order along its edge).
+    pub fn solve_run(&mut self, points: &[DVec2], visible: &mut ObjectSet) {
+        for &p in points {
+            self.solve(p, visible);
+        }
+    }
+
     /// Add to `visible` every object not hidden from the sample at `v`.
     pub fn solve(&mut self, v: DVec2, visible: &mut ObjectSet) {
         self.window.reset_around(v, self.near_field);

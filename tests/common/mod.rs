@@ -115,7 +115,11 @@ pub fn hand_scene(buildings: Vec<Building>, cells: Vec<[DVec2; 3]>, eps: f64) ->
             triangles: cells,
             region: Polygon::default(),
         },
-        eps,
+        settings: citypvs::Settings::new(citypvs::RawSettings {
+            eps: Some(eps),
+            ..Default::default()
+        })
+        .expect("valid eps"),
         timings: vec![],
     }
 }
