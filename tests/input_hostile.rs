@@ -254,6 +254,36 @@ fn cityjson_parent_cycles_are_refused_with_the_ids() {
 }
 
 #[test]
+fn an_absurd_number_of_verify_samples_is_refused_at_once() {
+    let out = Command::new(env!("CARGO_BIN_EXE_citypvs"))
+        .args([
+            "verify",
+            "no-such-city.geojson",
+            "no-such.pvs",
+            "--samples",
+            "1000000000",
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(e.contains("--samples must be between 1 and 100000"), "{e}");
+}
+
+#[test]
+fn bench_refuses_absurd_city_sizes_at_once() {
+    for n in ["0", "1000000000000"] {
+        let out = Command::new(env!("CARGO_BIN_EXE_citypvs"))
+            .args(["bench", "--buildings", n])
+            .output()
+            .unwrap();
+        assert_eq!(out.status.code(), Some(2));
+        let e = String::from_utf8_lossy(&out.stderr);
+        assert!(e.contains("--buildings must be between 1 and"), "{n}: {e}");
+    }
+}
+
+#[test]
 fn absurd_thread_counts_are_refused_at_once() {
     for (command, threads) in [("bake", "10000"), ("bake", "0"), ("verify", "100000")] {
         let t = Instant::now();

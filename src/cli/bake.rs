@@ -149,10 +149,11 @@ fn run_in_pool(args: &BakeArgs, threads: usize) -> Result<i32> {
         .chain(args.scene.region.iter())
         .map(PathBuf::as_path)
         .collect();
-    crate::atomic::check_output(&output, &inputs)?;
     let t = Instant::now();
     let (city, city_name) = load_city(args)?;
     let read_seconds = t.elapsed().as_secs_f64();
+    // After reading (a missing input is the first thing to say), before the work.
+    crate::atomic::check_output(&output, &inputs)?;
     let settings = super::common::settings(&args.scene, Some(&args.view), &city.frame)?;
     let mut scene = prepare(city, &settings)?;
     scene.timings.insert(

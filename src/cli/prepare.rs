@@ -41,12 +41,12 @@ pub fn run(args: &PrepareArgs) -> Result<i32> {
         .chain(args.scene.region.iter())
         .map(PathBuf::as_path)
         .collect();
-    for output in &outputs {
-        crate::atomic::check_output(output, &inputs)?;
-    }
     let t = Instant::now();
     let city = read_city(&args.city, &args.input.options())?;
     let read_seconds = t.elapsed().as_secs_f64();
+    for output in &outputs {
+        crate::atomic::check_output(output, &inputs)?;
+    }
     let settings = super::common::settings(&args.scene, None, &city.frame)?;
     let mut scene = prepare(city, &settings)?;
     scene.timings.insert(

@@ -16,6 +16,10 @@ use crate::verify::{
 };
 use crate::{Error, Result};
 
+/// Most viewpoints per cell `--samples` accepts (each batch of viewpoints is
+/// held in memory; 100,000 per cell already takes hours over 200 cells).
+pub const MAX_SAMPLES: usize = 100_000;
+
 #[derive(Args, Debug)]
 pub struct VerifyArgs {
     /// The city file the PVS was baked from.
@@ -118,8 +122,11 @@ struct Verdict<'a> {
 }
 
 pub fn run(args: &VerifyArgs) -> Result<i32> {
-    if args.samples == 0 {
-        return Err(Error::usage("--samples must be at least 1"));
+    if args.samples == 0 || args.samples > MAX_SAMPLES {
+        return Err(Error::usage(format!(
+            "--samples must be between 1 and {MAX_SAMPLES} viewpoints per cell, got {}",
+            args.samples
+        )));
     }
     if args.cells == 0 && !args.all {
         return Err(Error::usage("--cells must be at least 1"));
