@@ -223,9 +223,7 @@ fn merge_refuses_shards_that_do_not_belong_together() {
     let mut cp = citypvs::scale::part::Part::read(&d.join(s(1))).unwrap();
     cp.kind = citypvs::scale::part::PartKind::Checkpoint;
     let kept = cp.set_lens.len() - 1;
-    let dropped: u32 = cp.set_lens[kept];
-    cp.set_lens.truncate(kept);
-    cp.set_gaps.truncate(cp.set_gaps.len() - dropped as usize);
+    cp.truncate_sets(kept);
     cp.write(&d.join("cp-1")).unwrap();
     let err = fails(d, &["merge", &s(0), "cp-1", &s(2), "-o", "bad.pvs"], &[]);
     assert!(err.contains("cp-1") && err.contains("checkpoint"), "{err}");

@@ -207,13 +207,13 @@ fn run_in_pool(args: &BakeArgs, threads: usize) -> Result<i32> {
             ..Default::default()
         }
     } else {
-        let data = crate::pvs::PvsData {
-            info: crate::bake::bake_info(&scene),
-            object_ids: scene.city.buildings.iter().map(|b| b.id.clone()).collect(),
-            cells: scene.cells.triangles.clone(),
-            visible: baked.part.sets(),
-        };
-        crate::pvs::write_pvs(&output, &data)?
+        crate::pvs::write_streamed(
+            &output,
+            crate::bake::bake_info(&scene),
+            scene.city.buildings.iter().map(|b| b.id.clone()).collect(),
+            scene.cells.triangles.clone(),
+            &mut |f| baked.part.for_each_set(f),
+        )?
     };
     remove_checkpoint(&output)?;
     timings.push(StageTime {

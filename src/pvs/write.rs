@@ -329,10 +329,30 @@ impl PvsWriter {
 /// origin). Neighbouring objects are seen from neighbouring cells, so this
 /// numbers objects spatially enough for the coding.
 pub fn points_from_sets(data: &PvsData) -> Vec<DVec2> {
-    let n = data.object_ids.len();
-    let mut sum = vec![DVec2::ZERO; n];
-    let mut count = vec![0u32; n];
-    for (tri, set) in data.cells.iter().zip(&data.visible) {
+    let mut sets = data.visible.iter();
+    points_of_sets(data.object_ids.len(), &data.cells, &mut |f| {
+        sets.try_for_each(|s| f(s))
+    })
+    .expect("the sets of a PvsData are in memory")
+}
+
+/// The sets of the cells, in cell order, handed one at a time to the
+/// callback (so a caller can stream them from a compact store).
+pub type EachSet<'a> = dyn FnMut(&mut dyn FnMut(&[u32]) -> Result<()>) -> Result<()> + 'a;
+
+/// [`points_from_sets`] over sets handed out one at a time.
+fn points_of_sets(objects: usize, cells: &[[DVec2; 3]], each: &mut EachSet) -> Result<Vec<DVec2>> {
+    let mut sum = vec![DVec2::ZERO; objects];
+    let mut count = vec![0u32; objects];
+    let mut cell = 0;
+    each(&mut |set| {
+        let Some(tri) = cells.get(cell) else {
+            return Err(Error::new(format!(
+                "more visible sets than the {} cells",
+                cells.len()
+            )));
+        };
+        cell += 1;
         let centre = (tri[0] + tri[1] + tri[2]) / 3.0;
         for &i in set {
             if let (Some(s), Some(k)) = (sum.get_mut(i as usize), count.get_mut(i as usize)) {
@@ -340,8 +360,10 @@ pub fn points_from_sets(data: &PvsData) -> Vec<DVec2> {
                 *k += 1;
             }
         }
-    }
-    sum.iter()
+        Ok(())
+    })?;
+    Ok(sum
+        .iter()
         .zip(&count)
         .map(|(s, &k)| {
             if k > 0 {
@@ -350,7 +372,38 @@ pub fn points_from_sets(data: &PvsData) -> Vec<DVec2> {
                 DVec2::ZERO
             }
         })
-        .collect()
+        .collect())
+}
+
+/// Write a file whose sets are handed out twice by `each` (once to number
+/// the objects, once to code them), never all held at once: the same bytes
+/// as [`write_pvs`] of the same data.
+pub fn write_streamed(
+    path: &Path,
+    info: BakeInfo,
+    object_ids: Vec<String>,
+    cells: Vec<[DVec2; 3]>,
+    each: &mut EachSet,
+) -> Result<WriteStats> {
+    let run = || -> Result<(Vec<u8>, WriteStats)> {
+        let points = points_of_sets(object_ids.len(), &cells, each)?;
+        let count = cells.len();
+        let mut w = PvsWriter::new(info, object_ids, points, cells)?;
+        let mut pushed = 0;
+        each(&mut |set| {
+            pushed += 1;
+            w.push_cell(set)
+        })?;
+        if pushed != count {
+            return Err(Error::new(format!(
+                "{count} cells but {pushed} visible sets"
+            )));
+        }
+        w.finish()
+    };
+    let (bytes, stats) = run().map_err(|e| e.context(path.display()))?;
+    crate::atomic::write_atomically(path, &bytes)?;
+    Ok(stats)
 }
 
 /// The complete file bytes and the size measurements. Objects are numbered

@@ -163,27 +163,80 @@ pub struct Part {
     pub object_ids: Vec<String>,
     /// The triangles of the range's cells: x0 y0 x1 y1 x2 y2 in local metres.
     pub cells: Vec<[f64; 6]>,
-    /// The sets of the first `set_lens.len()` cells of the range: each set's
-    /// length, then all sets as gaps (first index, then differences).
+    /// The sets of the first `set_lens.len()` cells of the range: the bytes
+    /// each set takes in `set_runs`, where a set is its runs of consecutive
+    /// indices, each as two LEB128 numbers (the run's start minus the end of
+    /// the run before, or minus 0 for the first; the run's length minus 1).
+    /// A cell that sees every object takes two bytes.
     pub set_lens: Vec<u32>,
-    pub set_gaps: Vec<u32>,
+    pub set_runs: Vec<u8>,
 }
 
-/// The sets in the delta form a part stores.
-pub fn pack_sets<'a>(sets: impl IntoIterator<Item = &'a [u32]>) -> (Vec<u32>, Vec<u32>) {
-    let (mut lens, mut gaps) = (Vec::new(), Vec::new());
-    for set in sets {
-        lens.push(set.len() as u32);
-        let mut prev = None;
-        for &o in set {
-            gaps.push(match prev {
-                None => o,
-                Some(p) => o - p,
-            });
-            prev = Some(o);
+fn push_leb128(out: &mut Vec<u8>, mut v: u32) {
+    loop {
+        let byte = (v & 0x7f) as u8;
+        v >>= 7;
+        if v == 0 {
+            out.push(byte);
+            return;
+        }
+        out.push(byte | 0x80);
+    }
+}
+
+/// One LEB128 number of at most 32 bits from `bytes` at `*at`.
+fn read_leb128(bytes: &[u8], at: &mut usize) -> Option<u32> {
+    let mut v: u64 = 0;
+    for shift in (0..35).step_by(7) {
+        let b = *bytes.get(*at)?;
+        *at += 1;
+        v |= u64::from(b & 0x7f) << shift;
+        if b & 0x80 == 0 {
+            return u32::try_from(v).ok();
         }
     }
-    (lens, gaps)
+    None
+}
+
+/// Decode one set's run bytes, calling `f` with each member; `None` when
+/// the bytes are malformed or a member would pass `u32::MAX`.
+fn decode_runs(bytes: &[u8], mut f: impl FnMut(u32)) -> Option<()> {
+    let (mut at, mut end) = (0usize, 0u64);
+    while at < bytes.len() {
+        let start = end + u64::from(read_leb128(bytes, &mut at)?);
+        let len = u64::from(read_leb128(bytes, &mut at)?) + 1;
+        if start + len > u64::from(u32::MAX) {
+            return None;
+        }
+        for o in start..start + len {
+            f(o as u32);
+        }
+        end = start + len;
+    }
+    Some(())
+}
+
+/// The sets in the run form a part stores (ascending indices each).
+pub fn pack_sets<'a>(sets: impl IntoIterator<Item = &'a [u32]>) -> (Vec<u32>, Vec<u8>) {
+    let (mut lens, mut runs) = (Vec::new(), Vec::new());
+    for set in sets {
+        let before = runs.len();
+        let mut end = 0u32;
+        let mut i = 0;
+        while i < set.len() {
+            let start = set[i];
+            let mut j = i + 1;
+            while j < set.len() && set[j] == set[j - 1] + 1 {
+                j += 1;
+            }
+            push_leb128(&mut runs, start - end);
+            push_leb128(&mut runs, (j - i - 1) as u32);
+            end = set[j - 1] + 1;
+            i = j;
+        }
+        lens.push((runs.len() - before) as u32);
+    }
+    (lens, runs)
 }
 
 /// Decode with a bincode byte limit of at least `budget` (a power of two).
@@ -216,20 +269,44 @@ impl Part {
         self.set_lens.len()
     }
 
+    /// Add the set of the next cell of the range.
+    pub fn push_set(&mut self, set: &[u32]) {
+        let (lens, runs) = pack_sets(std::iter::once(set));
+        self.set_lens.extend(lens);
+        self.set_runs.extend(runs);
+    }
+
+    /// Keep only the sets of the first `cells` cells.
+    pub fn truncate_sets(&mut self, cells: usize) {
+        let keep: usize = self.set_lens.iter().take(cells).map(|&l| l as usize).sum();
+        self.set_lens.truncate(cells);
+        self.set_runs.truncate(keep);
+    }
+
+    /// Hand the stored sets (ascending object indices) to `f` one at a
+    /// time, in cell order, without expanding them all.
+    pub fn for_each_set(&self, f: &mut dyn FnMut(&[u32]) -> Result<()>) -> Result<()> {
+        let mut set = Vec::new();
+        let mut at = 0;
+        for &len in &self.set_lens {
+            set.clear();
+            let bytes = &self.set_runs[at..at + len as usize];
+            decode_runs(bytes, |o| set.push(o))
+                .ok_or_else(|| Error::format("a stored visible set is malformed"))?;
+            at += len as usize;
+            f(&set)?;
+        }
+        Ok(())
+    }
+
     /// The stored sets, ascending object indices (checked when decoded).
     pub fn sets(&self) -> Vec<Vec<u32>> {
         let mut out = Vec::with_capacity(self.set_lens.len());
-        let mut at = 0;
-        for &len in &self.set_lens {
-            let mut set = Vec::with_capacity(len as usize);
-            let mut o = 0u32;
-            for (k, &g) in self.set_gaps[at..at + len as usize].iter().enumerate() {
-                o = if k == 0 { g } else { o + g };
-                set.push(o);
-            }
-            at += len as usize;
-            out.push(set);
-        }
+        self.for_each_set(&mut |s| {
+            out.push(s.to_vec());
+            Ok(())
+        })
+        .expect("sets are checked when decoded or built by push_set");
         out
     }
 
@@ -408,30 +485,40 @@ impl Part {
             ));
         }
         let total: u64 = self.set_lens.iter().map(|&l| l as u64).sum();
-        if total != self.set_gaps.len() as u64 {
+        if total != self.set_runs.len() as u64 {
             return bad(format!(
-                "the set lengths add up to {total}, but {} indices are stored",
-                self.set_gaps.len()
+                "the set lengths add up to {total} bytes, but {} are stored",
+                self.set_runs.len()
             ));
         }
         let objects = self.object_ids.len() as u64;
         let mut at = 0;
         for (c, &len) in self.set_lens.iter().enumerate() {
-            let mut o = 0u64;
-            for (k, &g) in self.set_gaps[at..at + len as usize].iter().enumerate() {
-                if k > 0 && g == 0 {
-                    return bad(format!(
-                        "the set of cell {} is not strictly ascending",
-                        self.range_start + c as u64
-                    ));
+            let cell = self.range_start + c as u64;
+            let mut top = None;
+            let bytes = &self.set_runs[at..at + len as usize];
+            // Members only ever grow, so checking the last one of each run
+            // suffices; stop at the first one out of range.
+            let mut at_run = 0usize;
+            let mut end = 0u64;
+            while at_run < bytes.len() {
+                let (Some(gap), Some(more)) = (
+                    read_leb128(bytes, &mut at_run),
+                    read_leb128(bytes, &mut at_run),
+                ) else {
+                    return bad(format!("the set of cell {cell} is malformed"));
+                };
+                let last = end + u64::from(gap) + u64::from(more);
+                if last >= objects {
+                    top = Some(last);
+                    break;
                 }
-                o += g as u64;
-                if o >= objects {
-                    return bad(format!(
-                        "the set of cell {} holds object {o}, but there are {objects} objects",
-                        self.range_start + c as u64
-                    ));
-                }
+                end = last + 1;
+            }
+            if let Some(o) = top {
+                return bad(format!(
+                    "the set of cell {cell} holds object {o}, but there are {objects} objects"
+                ));
             }
             at += len as usize;
         }
@@ -445,7 +532,7 @@ mod tests {
 
     fn part() -> Part {
         let sets: Vec<Vec<u32>> = vec![vec![0, 2, 5], vec![], vec![1]];
-        let (set_lens, set_gaps) = pack_sets(sets.iter().map(|s| s.as_slice()));
+        let (set_lens, set_runs) = pack_sets(sets.iter().map(|s| s.as_slice()));
         Part {
             kind: PartKind::Shard,
             key: BakeKey::of([7; 32], &Settings::default()),
@@ -461,7 +548,7 @@ mod tests {
             object_ids: (0..6).map(|i| format!("b{i}")).collect(),
             cells: vec![[0.0, 0.0, 1.0, 0.0, 0.0, 1.0]; 3],
             set_lens,
-            set_gaps,
+            set_runs,
         }
     }
 
@@ -488,7 +575,7 @@ mod tests {
         assert!(err.to_string().contains("corrupted"), "{err}");
         // A well-formed file with an object index out of range.
         let mut p = part();
-        p.set_gaps[2] = 9;
+        p.set_runs[2] = 9;
         let err = Part::decode(&p.encode().unwrap()).unwrap_err();
         assert!(err.to_string().contains("holds object"), "{err}");
     }

@@ -14,7 +14,7 @@ use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-use super::part::{BakeKey, FrameRecord, Part, PartKind, pack_sets};
+use super::part::{BakeKey, FrameRecord, Part, PartKind};
 use super::shard::ShardSpec;
 use crate::Result;
 use crate::bake::{BakeStats, SetTally};
@@ -57,7 +57,7 @@ pub fn empty_part(scene: &Scene, kind: PartKind, spec: ShardSpec, range: Range<u
             .map(|t| [t[0].x, t[0].y, t[1].x, t[1].y, t[2].x, t[2].y])
             .collect(),
         set_lens: Vec::new(),
-        set_gaps: Vec::new(),
+        set_runs: Vec::new(),
     }
 }
 
@@ -114,9 +114,10 @@ pub fn bake_range(
     }
     let from_checkpoint = part.done();
     let mut tally = SetTally::default();
-    for set in part.sets() {
-        tally.add(&set);
-    }
+    part.for_each_set(&mut |set| {
+        tally.add(set);
+        Ok(())
+    })?;
     progress(from_checkpoint as u64);
 
     let todo = range.start + from_checkpoint..range.end;
@@ -147,9 +148,7 @@ pub fn bake_range(
     let mut written = 0;
     let mut solve = engine.solve_cells_paced(todo.clone(), next_chunk, progress, |cell, set| {
         tally.add(&set);
-        let (lens, gaps) = pack_sets(std::iter::once(set.as_slice()));
-        part.set_lens.extend(lens);
-        part.set_gaps.extend(gaps);
+        part.push_set(&set);
         since_save.set(since_save.get() + 1);
         let chunk_done = cell + 1 == chunk_end.get();
         let finished = cell + 1 == todo.end;

@@ -14,6 +14,11 @@ impl ObjectSet {
         }
     }
 
+    /// How many indices the set can hold (a multiple of 64).
+    pub fn capacity(&self) -> usize {
+        self.words.len() * 64
+    }
+
     /// Remove every member.
     pub fn clear(&mut self) {
         self.words.fill(0);

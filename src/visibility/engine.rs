@@ -65,6 +65,42 @@ pub struct CullMapImage {
     pub heights: Vec<f32>,
 }
 
+/// A finished visible set, kept in whichever form is smaller: a sorted
+/// list (4 bytes per member) or a bitset (one bit per object). So a set
+/// held between solving and handing on never takes more than
+/// min(4 |set|, objects / 8) bytes, even when a cell sees everything.
+enum StoredSet {
+    Sparse(Vec<u32>),
+    Dense(ObjectSet),
+}
+
+impl StoredSet {
+    fn of(set: &ObjectSet) -> StoredSet {
+        let count = set.count();
+        if count * 4 * 8 > set.capacity() {
+            StoredSet::Dense(set.clone())
+        } else {
+            StoredSet::Sparse(set.to_vec())
+        }
+    }
+
+    /// Add every member to `set`.
+    fn add_to(&self, set: &mut ObjectSet) {
+        match self {
+            StoredSet::Sparse(v) => v.iter().for_each(|&o| set.insert(o as usize)),
+            StoredSet::Dense(d) => set.union_with(d),
+        }
+    }
+
+    /// Members in ascending order.
+    fn to_vec(&self) -> Vec<u32> {
+        match self {
+            StoredSet::Sparse(v) => v.clone(),
+            StoredSet::Dense(d) => d.to_vec(),
+        }
+    }
+}
+
 /// What a run over a range of cells did.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct SolveStats {
@@ -144,11 +180,11 @@ impl<'a> VisibilityEngine<'a> {
         )
     }
 
-    fn solve_unit(&self, solver: &mut Solver, scratch: &mut ObjectSet, unit: UnitId) -> Vec<u32> {
+    fn solve_unit(&self, solver: &mut Solver, scratch: &mut ObjectSet, unit: UnitId) -> StoredSet {
         scratch.clear();
         let points = self.unit_points(unit);
         solver.solve_run(&points, scratch);
-        scratch.to_vec()
+        StoredSet::of(scratch)
     }
 
     /// The sample points (x, y, eye height) of one cell's top edges: its
@@ -167,9 +203,8 @@ impl<'a> VisibilityEngine<'a> {
         let mut scratch = ObjectSet::new(self.objects);
         let mut set = ObjectSet::new(self.objects);
         for unit in self.cell_units(cell) {
-            for o in self.solve_unit(&mut solver, &mut scratch, unit) {
-                set.insert(o as usize);
-            }
+            self.solve_unit(&mut solver, &mut scratch, unit)
+                .add_to(&mut set);
         }
         set.to_vec()
     }
@@ -271,14 +306,14 @@ impl<'a> VisibilityEngine<'a> {
                 last_use.insert(unit, cell);
             }
         }
-        let mut held: HashMap<UnitId, std::sync::Arc<Vec<u32>>> = HashMap::new();
+        let mut held: HashMap<UnitId, std::sync::Arc<StoredSet>> = HashMap::new();
         let mut start = range.start;
         while start < range.end {
             let end = (start + next_chunk(start).max(1)).min(range.end);
             let mut needed: Vec<UnitId> = (start..end).flat_map(|c| self.cell_units(c)).collect();
             needed.sort_unstable();
             needed.dedup();
-            let slots: HashMap<UnitId, OnceLock<std::sync::Arc<Vec<u32>>>> = needed
+            let slots: HashMap<UnitId, OnceLock<std::sync::Arc<StoredSet>>> = needed
                 .iter()
                 .map(|&u| {
                     let slot = OnceLock::new();
@@ -289,7 +324,7 @@ impl<'a> VisibilityEngine<'a> {
                 })
                 .collect();
             let solved = std::sync::atomic::AtomicUsize::new(0);
-            let sets: Vec<Vec<u32>> = (start..end)
+            let sets: Vec<StoredSet> = (start..end)
                 .into_par_iter()
                 .map_init(
                     || {
@@ -306,12 +341,10 @@ impl<'a> VisibilityEngine<'a> {
                                 solved.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
                                 std::sync::Arc::new(self.solve_unit(solver, scratch, unit))
                             });
-                            for &o in unit_set.iter() {
-                                set.insert(o as usize);
-                            }
+                            unit_set.add_to(set);
                         }
                         progress(1);
-                        set.to_vec()
+                        StoredSet::of(set)
                     },
                 )
                 .collect();
@@ -324,7 +357,7 @@ impl<'a> VisibilityEngine<'a> {
                 .collect();
             stats.peak_units_held = stats.peak_units_held.max(needed.len() + held.len());
             for (k, set) in sets.into_iter().enumerate() {
-                sink(start + k, set)?;
+                sink(start + k, set.to_vec())?;
             }
             start = end;
         }
