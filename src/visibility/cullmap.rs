@@ -51,6 +51,24 @@ impl CullWindow {
         self.reset(i0, j0, (i1 - i0 + 1) as usize, (j1 - j0 + 1) as usize);
     }
 
+    /// Place the window over the square of half-size `radius` around
+    /// `centre` (as `reset_around`) without touching the heights: call
+    /// `clear_heights` before drawing.
+    pub fn place_around(&mut self, centre: DVec2, radius: f64) {
+        let (i0, j0) = self.grid.pixel_of(centre - DVec2::splat(radius));
+        let (i1, j1) = self.grid.pixel_of(centre + DVec2::splat(radius));
+        self.i0 = i0;
+        self.j0 = j0;
+        self.width = (i1 - i0 + 1) as usize;
+        self.height = (j1 - j0 + 1) as usize;
+    }
+
+    /// Every pixel at 0 (nothing hidden).
+    pub fn clear_heights(&mut self) {
+        self.heights.clear();
+        self.heights.resize(self.width * self.height, 0.0);
+    }
+
     /// Cover the given pixels, every pixel at 0.
     pub fn reset(&mut self, i0: i32, j0: i32, width: usize, height: usize) {
         self.i0 = i0;

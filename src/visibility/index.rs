@@ -84,7 +84,14 @@ pub struct SceneIndex {
     pub pyramid: Vec<PyramidNode>,
     /// Index of the root node of the pyramid (none when there are no objects).
     pub root: Option<u32>,
+    /// Per pyramid node, its parent (`NO_PARENT` for the root).
+    pub parent: Vec<u32>,
+    /// Per object, the pyramid leaf that holds it.
+    pub object_leaf: Vec<u32>,
 }
+
+/// The parent of the pyramid's root.
+pub const NO_PARENT: u32 = u32::MAX;
 
 const BUCKET_SIZE: f64 = 16.0;
 const PYRAMID_LEAF: f64 = 32.0;
@@ -131,6 +138,16 @@ impl SceneIndex {
             .map(|b| rasterise_object(b, grid))
             .collect();
         let (pyramid, root) = build_pyramid(&objects);
+        let mut parent = vec![NO_PARENT; pyramid.len()];
+        let mut object_leaf = vec![0; objects.len()];
+        for (n, node) in pyramid.iter().enumerate() {
+            for &c in &node.children {
+                parent[c as usize] = n as u32;
+            }
+            for &o in &node.objects {
+                object_leaf[o as usize] = n as u32;
+            }
+        }
         SceneIndex {
             grid,
             edges,
@@ -142,6 +159,8 @@ impl SceneIndex {
             objects,
             pyramid,
             root,
+            parent,
+            object_leaf,
         }
     }
 

@@ -128,9 +128,7 @@ pub fn compute_pvs(
         let mut set = ObjectSet::new(n_objects);
         let points = unit_points(&topo, &units[u], spacing);
         sample_count.fetch_add(points.len(), Ordering::Relaxed);
-        for p in points {
-            solver.solve(p, &mut set);
-        }
+        solver.solve_run(&points, &mut set);
         set
     };
     let n_vertices = topo.vertices.len();

@@ -18,7 +18,7 @@ use glam::DVec2;
 use super::bitset::ObjectSet;
 use super::cullmap::CullWindow;
 use super::horizon::Horizon;
-use super::index::{MAX_EDGE_PIECE, SceneIndex};
+use super::index::{MAX_EDGE_PIECE, NO_PARENT, SceneIndex};
 use crate::model::{Rect, distance_to_segment};
 
 /// Default half-size in metres of the near-field cull map.
@@ -67,6 +67,13 @@ pub struct Solver<'a> {
     chains: BinaryHeap<Reverse<(u64, u32, u32)>>,
     /// Edge buckets already swept into `chains`, as a Chebyshev ring radius.
     swept_rings: i64,
+    /// Per pyramid node, the greatest height of its objects not yet in the
+    /// unit's visible set (`NEG_INFINITY` when every one is).
+    remaining: Vec<f64>,
+    /// Stamps of the edges gathered for the cull map (kept apart from the
+    /// chain sweep's, which runs at the same time).
+    raster_stamp: Vec<u32>,
+    raster_stamp_value: u32,
 }
 
 impl<'a> Solver<'a> {
@@ -83,6 +90,9 @@ impl<'a> Solver<'a> {
             queue: BinaryHeap::new(),
             chains: BinaryHeap::new(),
             swept_rings: -1,
+            remaining: Vec::new(),
+            raster_stamp: vec![0; index.edges.len()],
+            raster_stamp_value: 0,
         }
     }
 
@@ -97,8 +107,83 @@ impl<'a> Solver<'a> {
 
     /// Add to `visible` every object not hidden from the sample at `v`.
     pub fn solve(&mut self, v: DVec2, visible: &mut ObjectSet) {
-        self.window.reset_around(v, self.near_field);
-        self.rasterise_occluders(v);
+        self.solve_run(&[v], visible);
+    }
+
+    /// Add to `visible` every object not hidden from some point of `points`
+    /// (the samples of one unit: in order along a straight segment, or a
+    /// single point). Each sample decides only the objects not yet in
+    /// `visible`, so later samples skip what earlier ones saw; the result is
+    /// the union of the samples' own verdicts, which depend on the sample and
+    /// the scene only, so it does not depend on the samples' order or on
+    /// anything solved before.
+    pub fn solve_run(&mut self, points: &[DVec2], visible: &mut ObjectSet) {
+        let index = self.index;
+        self.remaining.clear();
+        self.remaining
+            .extend(index.pyramid.iter().map(|n| n.max_height));
+        let mut leaves: Vec<u32> = visible
+            .to_vec()
+            .into_iter()
+            .filter(|&o| (o as usize) < index.objects.len())
+            .map(|o| index.object_leaf[o as usize])
+            .collect();
+        leaves.sort_unstable();
+        leaves.dedup();
+        for leaf in leaves {
+            self.refresh_remaining(leaf, visible);
+        }
+        for &p in points {
+            self.solve_point(p, visible);
+        }
+    }
+
+    /// Recompute the greatest height of the objects not yet visible under
+    /// `node` (a leaf) and its ancestors; `NEG_INFINITY` where none is left.
+    fn refresh_remaining(&mut self, node: u32, visible: &ObjectSet) {
+        let index = self.index;
+        let leaf = &index.pyramid[node as usize];
+        let mut top = leaf
+            .objects
+            .iter()
+            .filter(|&&o| !visible.contains(o as usize))
+            .map(|&o| index.objects[o as usize].height)
+            .fold(f64::NEG_INFINITY, f64::max);
+        for &c in &leaf.children {
+            top = top.max(self.remaining[c as usize]);
+        }
+        let mut n = node;
+        loop {
+            if self.remaining[n as usize] == top {
+                return;
+            }
+            self.remaining[n as usize] = top;
+            n = index.parent[n as usize];
+            if n == NO_PARENT {
+                return;
+            }
+            let node = &index.pyramid[n as usize];
+            top = node
+                .children
+                .iter()
+                .map(|&c| self.remaining[c as usize])
+                .fold(f64::NEG_INFINITY, f64::max);
+            top = node
+                .objects
+                .iter()
+                .filter(|&&o| !visible.contains(o as usize))
+                .map(|&o| index.objects[o as usize].height)
+                .fold(top, f64::max);
+        }
+    }
+
+    /// One sample: add every object not yet in `visible` that is not hidden
+    /// from `v`.
+    fn solve_point(&mut self, v: DVec2, visible: &mut ObjectSet) {
+        // The cull map is drawn only when a not yet visible object that
+        // overlaps the window is tested.
+        self.window.place_around(v, self.near_field);
+        let mut drawn = false;
         self.horizon.clear();
         self.chains.clear();
         self.swept_rings = -1;
@@ -113,19 +198,24 @@ impl<'a> Solver<'a> {
         let window = self.window.rect();
         while let Some(Reverse((k, item))) = self.queue.pop() {
             let r = f64::from_bits(k);
-            self.grow_horizon(v, r);
             match item {
                 Item::Node(n) => {
+                    // Only the objects not yet visible are left to decide:
+                    // the node hides them if it hides their greatest height.
+                    let top = self.remaining[n as usize];
+                    if top == f64::NEG_INFINITY {
+                        continue;
+                    }
+                    self.grow_horizon(v, r);
                     let node = &index.pyramid[n as usize];
-                    if self
-                        .horizon
-                        .hides_rect(v, self.eye, &node.rect, node.max_height)
-                    {
+                    if self.horizon.hides_rect(v, self.eye, &node.rect, top) {
                         continue;
                     }
                     for &c in &node.children {
-                        let d = rect_distance(v, &index.pyramid[c as usize].rect);
-                        self.queue.push(Reverse((key(d), Item::Node(c))));
+                        if self.remaining[c as usize] != f64::NEG_INFINITY {
+                            let d = rect_distance(v, &index.pyramid[c as usize].rect);
+                            self.queue.push(Reverse((key(d), Item::Node(c))));
+                        }
                     }
                     for &o in &node.objects {
                         if !visible.contains(o as usize) {
@@ -135,8 +225,19 @@ impl<'a> Solver<'a> {
                     }
                 }
                 Item::Object(o) => {
-                    if !visible.contains(o as usize) && !self.object_hidden(v, o, &window) {
+                    if visible.contains(o as usize) {
+                        continue;
+                    }
+                    self.grow_horizon(v, r);
+                    let object = &index.objects[o as usize];
+                    if !drawn && object.rect.intersects(&window) {
+                        self.window.clear_heights();
+                        self.rasterise_occluders(v);
+                        drawn = true;
+                    }
+                    if !self.object_hidden(v, o, &window) {
                         visible.insert(o as usize);
+                        self.refresh_remaining(index.object_leaf[o as usize], visible);
                     }
                 }
             }
@@ -237,9 +338,14 @@ impl<'a> Solver<'a> {
     pub fn rasterise_occluders(&mut self, v: DVec2) {
         let index = self.index;
         let rect = self.window.rect();
-        let stamp = self.next_stamp();
+        self.raster_stamp_value = self.raster_stamp_value.wrapping_add(1);
+        if self.raster_stamp_value == 0 {
+            self.raster_stamp.fill(0);
+            self.raster_stamp_value = 1;
+        }
+        let stamp = self.raster_stamp_value;
         self.gathered.clear();
-        let (edge_stamp, gathered) = (&mut self.edge_stamp, &mut self.gathered);
+        let (edge_stamp, gathered) = (&mut self.raster_stamp, &mut self.gathered);
         index.edges_near(&rect, |e| {
             if edge_stamp[e as usize] != stamp {
                 edge_stamp[e as usize] = stamp;
