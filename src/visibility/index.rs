@@ -80,6 +80,9 @@ pub struct SceneIndex {
     buckets: Vec<Vec<u32>>,
     /// Greatest occluder height among each bucket's edges (0 when empty).
     bucket_heights: Vec<f64>,
+    /// Per bucket and chain stride (1, 2, 4), the bounding rectangle of
+    /// every chain the solver may start from the bucket's edges.
+    bucket_chain_rects: Vec<[Rect; 3]>,
     pub objects: Vec<ObjectRaster>,
     pub pyramid: Vec<PyramidNode>,
     /// Index of the root node of the pyramid (none when there are no objects).
@@ -133,6 +136,29 @@ impl SceneIndex {
                     .fold(0.0, f64::max)
             })
             .collect();
+        let bucket_chain_rects = buckets
+            .iter()
+            .map(|b| {
+                let mut rects = [Rect::EMPTY; 3];
+                for (level, rect) in rects.iter_mut().enumerate() {
+                    let stride = 1u32 << level;
+                    for &e in b {
+                        let edge = &edges[e as usize];
+                        if !edge.ring_pos.is_multiple_of(stride) {
+                            continue;
+                        }
+                        rect.include(edge.a);
+                        let mut cur = e;
+                        for _ in 0..=stride {
+                            let c = &edges[cur as usize];
+                            rect.include(c.b);
+                            cur = c.next;
+                        }
+                    }
+                }
+                rects
+            })
+            .collect();
         let objects: Vec<ObjectRaster> = buildings
             .iter()
             .map(|b| rasterise_object(b, grid))
@@ -156,6 +182,7 @@ impl SceneIndex {
             bucket_dims: (nx, ny),
             buckets,
             bucket_heights,
+            bucket_chain_rects,
             objects,
             pyramid,
             root,
@@ -217,6 +244,13 @@ impl SceneIndex {
     /// The greatest occluder height among bucket `b`'s edges.
     pub fn bucket_height(&self, b: usize) -> f64 {
         self.bucket_heights[b]
+    }
+
+    /// The bounding rectangle of the chains of `stride + 1` pieces that
+    /// start at every `stride`-th piece (stride 1, 2 or 4) among bucket
+    /// `b`'s edges; empty when there are none.
+    pub fn bucket_chain_rect(&self, b: usize, stride: u32) -> &Rect {
+        &self.bucket_chain_rects[b][(stride.trailing_zeros() as usize).min(2)]
     }
 
     /// The square bucket `b` covers.

@@ -18,7 +18,7 @@ use glam::DVec2;
 use super::bitset::ObjectSet;
 use super::cullmap::CullWindow;
 use super::horizon::Horizon;
-use super::index::{MAX_EDGE_PIECE, NO_PARENT, SceneIndex};
+use super::index::{NO_PARENT, SceneIndex};
 use crate::model::{Rect, distance_to_segment};
 
 /// Default half-size in metres of the near-field cull map.
@@ -37,8 +37,69 @@ fn chain_stride(distance: f64) -> u32 {
     }
 }
 
-/// The most pieces a chain holds.
-const MAX_CHAIN_PIECES: u32 = 5;
+/// Width in metres of the distance slots of the chain queue.
+const CHAIN_SLOT: f64 = 4.0;
+
+/// Chains waiting to enter the horizon, in distance slots: a chain only has
+/// to be in the horizon before an item farther than its farthest point is
+/// tested, and the order in which chains enter does not change the horizon
+/// (a per-bin max), so a coarse order is enough.
+#[derive(Default)]
+struct ChainQueue {
+    slots: Vec<Vec<(f64, u32, u32)>>,
+    /// Every slot below this one is empty.
+    first: usize,
+    len: usize,
+}
+
+impl ChainQueue {
+    fn clear(&mut self) {
+        let start = self.first.min(self.slots.len());
+        for slot in &mut self.slots[start..] {
+            slot.clear();
+        }
+        self.first = 0;
+        self.len = 0;
+    }
+
+    fn push(&mut self, d: f64, e: u32, pieces: u32) {
+        // A chain is never found after items beyond it were tested (the
+        // bucket sweep runs ahead); should one be, it simply enters late,
+        // which can only leave more visible.
+        let slot = ((d.max(0.0) / CHAIN_SLOT) as usize).max(self.first);
+        if slot >= self.slots.len() {
+            self.slots.resize_with(slot + 1, Vec::new);
+        }
+        self.slots[slot].push((d, e, pieces));
+        self.len += 1;
+    }
+
+    /// Move every chain nearer than `r` into `out`.
+    fn take_nearer(&mut self, r: f64, out: &mut Vec<(f64, u32, u32)>) {
+        if self.len == 0 {
+            return;
+        }
+        let whole = ((r.max(0.0) / CHAIN_SLOT) as usize).min(self.slots.len());
+        while self.first < whole {
+            let slot = &mut self.slots[self.first];
+            self.len -= slot.len();
+            out.append(slot);
+            self.first += 1;
+        }
+        if let Some(slot) = self.slots.get_mut(whole) {
+            let before = slot.len();
+            slot.retain(|&c| {
+                if c.0 < r {
+                    out.push(c);
+                    false
+                } else {
+                    true
+                }
+            });
+            self.len -= before - slot.len();
+        }
+    }
+}
 
 /// Something waiting in the nearest-first queue.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
@@ -64,7 +125,8 @@ pub struct Solver<'a> {
     stamp: u32,
     gathered: Vec<(f64, u32)>,
     queue: BinaryHeap<Reverse<(u64, Item)>>,
-    chains: BinaryHeap<Reverse<(u64, u32, u32)>>,
+    chains: ChainQueue,
+    ready: Vec<(f64, u32, u32)>,
     /// Edge buckets already swept into `chains`, as a Chebyshev ring radius.
     swept_rings: i64,
     /// Per pyramid node, the greatest height of its objects not yet in the
@@ -88,7 +150,8 @@ impl<'a> Solver<'a> {
             stamp: 0,
             gathered: Vec::new(),
             queue: BinaryHeap::new(),
-            chains: BinaryHeap::new(),
+            chains: ChainQueue::default(),
+            ready: Vec::new(),
             swept_rings: -1,
             remaining: Vec::new(),
             raster_stamp: vec![0; index.edges.len()],
@@ -280,15 +343,12 @@ impl<'a> Solver<'a> {
                 if height <= eye {
                     return;
                 }
-                // Every chain that starts in this bucket lies within
-                // MAX_CHAIN_PIECES pieces of it and is no higher than the
-                // bucket's highest edge: if that is all below the horizon
-                // already, no chain of the bucket can raise it (the horizon
-                // only grows).
-                let reach = index
-                    .bucket_rect(bucket)
-                    .grown(MAX_CHAIN_PIECES as f64 * MAX_EDGE_PIECE);
-                if horizon.hides_rect(v, eye, &reach, height) {
+                // Every chain that starts in this bucket lies in its chain
+                // rectangle and is no higher than the bucket's highest edge:
+                // if that is all below the horizon already, no chain of the
+                // bucket can raise it (the horizon only grows).
+                let reach = index.bucket_chain_rect(bucket, stride);
+                if reach.is_empty() || horizon.hides_rect(v, eye, reach, height) {
                     return;
                 }
                 for &e in index.bucket_edges(bucket) {
@@ -308,15 +368,14 @@ impl<'a> Solver<'a> {
                         d_max = d_max.max(c.b.distance(v));
                         cur = c.next;
                     }
-                    chains.push(Reverse((key(d_max), e, pieces)));
+                    chains.push(d_max, e, pieces);
                 }
             });
         }
-        while let Some(&Reverse((k, e, pieces))) = self.chains.peek() {
-            if f64::from_bits(k) >= r {
-                break;
-            }
-            self.chains.pop();
+        let mut ready = std::mem::take(&mut self.ready);
+        ready.clear();
+        self.chains.take_nearer(r, &mut ready);
+        for &(_, e, pieces) in &ready {
             let edge = &index.edges[e as usize];
             let mut cur = e;
             let mut count = 0;
@@ -331,6 +390,7 @@ impl<'a> Solver<'a> {
             }));
             self.horizon.add_chain(v, self.eye, edge.height, chain);
         }
+        self.ready = ready;
     }
 
     /// Fill the window with U_V from the occluder edges that reach into it,
