@@ -187,10 +187,15 @@ impl CullWindow {
         let k = self.grid.pixel;
         let full = (0, self.height);
         let r = self.rect();
-        let reach = [r.min, r.max, DVec2::new(r.min.x, r.max.y), DVec2::new(r.max.x, r.min.y)]
-            .iter()
-            .map(|c| c.distance(v))
-            .fold(0.0, f64::max);
+        let reach = [
+            r.min,
+            r.max,
+            DVec2::new(r.min.x, r.max.y),
+            DVec2::new(r.max.x, r.min.y),
+        ]
+        .iter()
+        .map(|c| c.distance(v))
+        .fold(0.0, f64::max);
         let mid = ua + ub;
         let cos_half = mid.length() / 2.0;
         if !(cos_half > 1e-3) {
