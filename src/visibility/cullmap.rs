@@ -198,7 +198,7 @@ impl CullWindow {
         .fold(0.0, f64::max);
         let mid = ua + ub;
         let cos_half = mid.length() / 2.0;
-        if !(cos_half > 1e-3) {
+        if cos_half.is_nan() || cos_half <= 1e-3 {
             return full;
         }
         let far = reach / cos_half + 2.0 * k;
@@ -208,7 +208,7 @@ impl CullWindow {
         let y_hi = ys.iter().copied().fold(f64::NEG_INFINITY, f64::max);
         let lo = ((y_lo / k).floor() - 1.0 - self.j0 as f64).max(0.0);
         let hi = ((y_hi / k).floor() + 2.0 - self.j0 as f64).min(self.height as f64);
-        if !(lo < hi) {
+        if lo.is_nan() || hi.is_nan() || lo >= hi {
             return (0, 0);
         }
         (lo as usize, hi as usize)
