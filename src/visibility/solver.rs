@@ -176,10 +176,11 @@ impl<'a> Solver<'a> {
     /// Add to `visible` every object not hidden from some point of `points`
     /// (the samples of one unit: in order along a straight segment, or a
     /// single point). Each sample decides only the objects not yet in
-    /// `visible`, so later samples skip what earlier ones saw; the result is
-    /// the union of the samples' own verdicts, which depend on the sample and
-    /// the scene only, so it does not depend on the samples' order or on
-    /// anything solved before.
+    /// `visible`: later samples skip what earlier ones saw, and a pyramid
+    /// node is tested with the greatest height of its objects still to be
+    /// decided. The result depends on the points (in the order given), the
+    /// objects already in `visible` and the scene only, never on what the
+    /// solver solved before.
     pub fn solve_run(&mut self, points: &[DVec2], visible: &mut ObjectSet) {
         let index = self.index;
         self.remaining.clear();
