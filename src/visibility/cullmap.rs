@@ -51,6 +51,24 @@ impl CullWindow {
         self.reset(i0, j0, (i1 - i0 + 1) as usize, (j1 - j0 + 1) as usize);
     }
 
+    /// Place the window over the square of half-size `radius` around
+    /// `centre` (as `reset_around`) without touching the heights: call
+    /// `clear_heights` before drawing.
+    pub fn place_around(&mut self, centre: DVec2, radius: f64) {
+        let (i0, j0) = self.grid.pixel_of(centre - DVec2::splat(radius));
+        let (i1, j1) = self.grid.pixel_of(centre + DVec2::splat(radius));
+        self.i0 = i0;
+        self.j0 = j0;
+        self.width = (i1 - i0 + 1) as usize;
+        self.height = (j1 - j0 + 1) as usize;
+    }
+
+    /// Every pixel at 0 (nothing hidden).
+    pub fn clear_heights(&mut self) {
+        self.heights.clear();
+        self.heights.resize(self.width * self.height, 0.0);
+    }
+
     /// Cover the given pixels, every pixel at 0.
     pub fn reset(&mut self, i0: i32, j0: i32, width: usize, height: usize) {
         self.i0 = i0;
@@ -117,7 +135,8 @@ impl CullWindow {
         ];
         let rise = (height - eye) / dist_to_line;
         let k = self.grid.pixel;
-        for row in 0..self.height {
+        let (row_lo, row_hi) = self.shadow_rows(v, a, b, ua, ub);
+        for row in row_lo..row_hi {
             let yc = (self.j0 + row as i32) as f64 * k + 0.5 * k;
             let (mut x_lo, mut x_hi) = (f64::NEG_INFINITY, f64::INFINITY);
             let mut empty = false;
@@ -156,6 +175,43 @@ impl CullWindow {
                 }
             }
         }
+    }
+
+    /// Rows `lo..hi` of the window outside which the shadow quad of `a`-`b`
+    /// seen from `v` (unit directions `ua`, `ub` to its ends) has no pixel:
+    /// inside the window every point is within `reach` of `v`, so the part
+    /// of the quad there lies in the quad cut off where the rays to a and b
+    /// are `reach / cos(half the wedge's angle)` long, and the rows are those
+    /// of its four corners, one row of margin either side.
+    fn shadow_rows(&self, v: DVec2, a: DVec2, b: DVec2, ua: DVec2, ub: DVec2) -> (usize, usize) {
+        let k = self.grid.pixel;
+        let full = (0, self.height);
+        let r = self.rect();
+        let reach = [
+            r.min,
+            r.max,
+            DVec2::new(r.min.x, r.max.y),
+            DVec2::new(r.max.x, r.min.y),
+        ]
+        .iter()
+        .map(|c| c.distance(v))
+        .fold(0.0, f64::max);
+        let mid = ua + ub;
+        let cos_half = mid.length() / 2.0;
+        if cos_half.is_nan() || cos_half <= 1e-3 {
+            return full;
+        }
+        let far = reach / cos_half + 2.0 * k;
+        let (ta, tb) = (far.max(a.distance(v)), far.max(b.distance(v)));
+        let ys = [a.y, b.y, v.y + ua.y * ta, v.y + ub.y * tb];
+        let y_lo = ys.iter().copied().fold(f64::INFINITY, f64::min);
+        let y_hi = ys.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let lo = ((y_lo / k).floor() - 1.0 - self.j0 as f64).max(0.0);
+        let hi = ((y_hi / k).floor() + 2.0 - self.j0 as f64).min(self.height as f64);
+        if lo.is_nan() || hi.is_nan() || lo >= hi {
+            return (0, 0);
+        }
+        (lo as usize, hi as usize)
     }
 
     /// True when the map hides height `top` at the pixels under points along

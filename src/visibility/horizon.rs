@@ -29,6 +29,7 @@ pub const BINS: usize = 2048;
 /// The pseudo-angle of a full turn.
 const TURN: f64 = 4.0;
 const BIN_WIDTH: f64 = TURN / BINS as f64;
+const _: () = assert!(BINS.is_power_of_two() && (BINS / GROUP).is_power_of_two());
 /// Bins per group in the coarse level that lets hidden chains be skipped.
 const GROUP: usize = 32;
 
@@ -38,6 +39,8 @@ pub struct Horizon {
     slopes: Vec<f64>,
     chain_points: Vec<DVec2>,
     chain_angles: Vec<f64>,
+    /// Distance from the eye to each point of the chain being added.
+    chain_dists: Vec<f64>,
     /// Per bin of the chain being added, the reciprocal of the greatest
     /// distance of its parts in the bin's wedge.
     bin_nearness: Vec<f64>,
@@ -53,6 +56,7 @@ impl Default for Horizon {
             slopes: vec![f64::NEG_INFINITY; BINS],
             chain_points: Vec::new(),
             chain_angles: Vec::new(),
+            chain_dists: Vec::new(),
             bin_nearness: Vec::new(),
             border_dirs: (0..BINS)
                 .map(|b| direction_of(b as f64 * BIN_WIDTH))
@@ -105,11 +109,27 @@ fn unwrapped_angle(v: DVec2, p: DVec2, reference: f64) -> f64 {
 
 /// The bin (unwrapped, any integer) holding pseudo-angle `a`.
 fn bin_of(a: f64) -> i64 {
-    (a / BIN_WIDTH).floor() as i64
+    floor_i64(a / BIN_WIDTH)
+}
+
+/// `x.floor() as i64` for |x| < 2^52 without a libm call (the default
+/// x86-64 target has no rounding instruction).
+#[inline]
+pub(crate) fn floor_i64(x: f64) -> i64 {
+    let t = x as i64;
+    t - ((t as f64) > x) as i64
+}
+
+/// `x.ceil() as i64` for |x| < 2^52.
+#[inline]
+pub(crate) fn ceil_i64(x: f64) -> i64 {
+    let t = x as i64;
+    t + ((t as f64) < x) as i64
 }
 
 fn wrap(bin: i64) -> usize {
-    bin.rem_euclid(BINS as i64) as usize
+    // BINS is a power of two: the mask is the Euclidean remainder.
+    (bin & (BINS as i64 - 1)) as usize
 }
 
 impl Horizon {
@@ -141,12 +161,15 @@ impl Horizon {
             return;
         }
         self.chain_angles.clear();
+        self.chain_dists.clear();
         let mut reference = 0.0;
         for i in 0..n {
             let p = self.chain_points[i];
-            if p.distance(v) < 1e-9 {
+            let d = p.distance(v);
+            if d < 1e-9 {
                 return;
             }
+            self.chain_dists.push(d);
             reference = unwrapped_angle(v, p, reference);
             self.chain_angles.push(reference);
         }
@@ -178,7 +201,7 @@ impl Horizon {
             .fold(f64::INFINITY, f64::min);
         let rise = height - eye;
         let groups = (base.div_euclid(GROUP as i64)..=top.div_euclid(GROUP as i64))
-            .map(|g| self.group_min[g.rem_euclid((BINS / GROUP) as i64) as usize]);
+            .map(|g| self.group_min[(g & ((BINS / GROUP) as i64 - 1)) as usize]);
         if groups.fold(f64::INFINITY, f64::min) >= rise / nearest {
             return;
         }
@@ -188,7 +211,7 @@ impl Horizon {
         for i in 0..n - 1 {
             let (a, b) = (self.chain_points[i], self.chain_points[i + 1]);
             let (mut ta, mut tb) = (self.chain_angles[i], self.chain_angles[i + 1]);
-            let (mut da, mut db) = (a.distance(v), b.distance(v));
+            let (mut da, mut db) = (self.chain_dists[i], self.chain_dists[i + 1]);
             if ta > tb {
                 std::mem::swap(&mut ta, &mut tb);
                 std::mem::swap(&mut da, &mut db);
@@ -225,7 +248,7 @@ impl Horizon {
                 lower = upper;
             }
         }
-        let first_full = (lo / BIN_WIDTH).ceil() as i64;
+        let first_full = ceil_i64(lo / BIN_WIDTH);
         let last_full = bin_of(hi) - 1;
         for bin in first_full..=last_full {
             let nearness = self.bin_nearness[(bin - base) as usize];
@@ -236,7 +259,7 @@ impl Horizon {
         }
         if first_full <= last_full {
             for g in first_full.div_euclid(GROUP as i64)..=last_full.div_euclid(GROUP as i64) {
-                let g = g.rem_euclid((BINS / GROUP) as i64) as usize;
+                let g = (g & ((BINS / GROUP) as i64 - 1)) as usize;
                 let bins = &self.slopes[g * GROUP..(g + 1) * GROUP];
                 self.group_min[g] = bins.iter().copied().fold(f64::INFINITY, f64::min);
             }

@@ -80,11 +80,21 @@ pub struct SceneIndex {
     buckets: Vec<Vec<u32>>,
     /// Greatest occluder height among each bucket's edges (0 when empty).
     bucket_heights: Vec<f64>,
+    /// Per bucket and chain stride (1, 2, 4), the bounding rectangle of
+    /// every chain the solver may start from the bucket's edges.
+    bucket_chain_rects: Vec<[Rect; 3]>,
     pub objects: Vec<ObjectRaster>,
     pub pyramid: Vec<PyramidNode>,
     /// Index of the root node of the pyramid (none when there are no objects).
     pub root: Option<u32>,
+    /// Per pyramid node, its parent (`NO_PARENT` for the root).
+    pub parent: Vec<u32>,
+    /// Per object, the pyramid leaf that holds it.
+    pub object_leaf: Vec<u32>,
 }
+
+/// The parent of the pyramid's root.
+pub const NO_PARENT: u32 = u32::MAX;
 
 const BUCKET_SIZE: f64 = 16.0;
 const PYRAMID_LEAF: f64 = 32.0;
@@ -142,11 +152,44 @@ impl SceneIndex {
                     .fold(0.0, f64::max)
             })
             .collect();
+        let bucket_chain_rects = buckets
+            .iter()
+            .map(|b| {
+                let mut rects = [Rect::EMPTY; 3];
+                for (level, rect) in rects.iter_mut().enumerate() {
+                    let stride = 1u32 << level;
+                    for &e in b {
+                        let edge = &edges[e as usize];
+                        if !edge.ring_pos.is_multiple_of(stride) {
+                            continue;
+                        }
+                        rect.include(edge.a);
+                        let mut cur = e;
+                        for _ in 0..=stride {
+                            let c = &edges[cur as usize];
+                            rect.include(c.b);
+                            cur = c.next;
+                        }
+                    }
+                }
+                rects
+            })
+            .collect();
         let objects: Vec<ObjectRaster> = buildings
             .iter()
             .map(|b| rasterise_object(b, grid))
             .collect();
         let (pyramid, root) = build_pyramid(&objects);
+        let mut parent = vec![NO_PARENT; pyramid.len()];
+        let mut object_leaf = vec![0; objects.len()];
+        for (n, node) in pyramid.iter().enumerate() {
+            for &c in &node.children {
+                parent[c as usize] = n as u32;
+            }
+            for &o in &node.objects {
+                object_leaf[o as usize] = n as u32;
+            }
+        }
         SceneIndex {
             grid,
             edges,
@@ -155,9 +198,12 @@ impl SceneIndex {
             bucket_dims: (nx, ny),
             buckets,
             bucket_heights,
+            bucket_chain_rects,
             objects,
             pyramid,
             root,
+            parent,
+            object_leaf,
         }
     }
 
@@ -214,6 +260,13 @@ impl SceneIndex {
     /// The greatest occluder height among bucket `b`'s edges.
     pub fn bucket_height(&self, b: usize) -> f64 {
         self.bucket_heights[b]
+    }
+
+    /// The bounding rectangle of the chains of `stride + 1` pieces that
+    /// start at every `stride`-th piece (stride 1, 2 or 4) among bucket
+    /// `b`'s edges; empty when there are none.
+    pub fn bucket_chain_rect(&self, b: usize, stride: u32) -> &Rect {
+        &self.bucket_chain_rects[b][(stride.trailing_zeros() as usize).min(2)]
     }
 
     /// The square bucket `b` covers.

@@ -18,7 +18,7 @@ use glam::DVec2;
 use super::bitset::ObjectSet;
 use super::cullmap::CullWindow;
 use super::horizon::Horizon;
-use super::index::{MAX_EDGE_PIECE, SceneIndex};
+use super::index::{NO_PARENT, SceneIndex};
 use crate::model::{Rect, distance_to_segment};
 
 /// Default half-size in metres of the near-field cull map.
@@ -37,8 +37,69 @@ fn chain_stride(distance: f64) -> u32 {
     }
 }
 
-/// The most pieces a chain holds.
-const MAX_CHAIN_PIECES: u32 = 5;
+/// Width in metres of the distance slots of the chain queue.
+const CHAIN_SLOT: f64 = 4.0;
+
+/// Chains waiting to enter the horizon, in distance slots: a chain only has
+/// to be in the horizon before an item farther than its farthest point is
+/// tested, and the order in which chains enter does not change the horizon
+/// (a per-bin max), so a coarse order is enough.
+#[derive(Default)]
+struct ChainQueue {
+    slots: Vec<Vec<(f64, u32, u32)>>,
+    /// Every slot below this one is empty.
+    first: usize,
+    len: usize,
+}
+
+impl ChainQueue {
+    fn clear(&mut self) {
+        let start = self.first.min(self.slots.len());
+        for slot in &mut self.slots[start..] {
+            slot.clear();
+        }
+        self.first = 0;
+        self.len = 0;
+    }
+
+    fn push(&mut self, d: f64, e: u32, pieces: u32) {
+        // A chain is never found after items beyond it were tested (the
+        // bucket sweep runs ahead); should one be, it simply enters late,
+        // which can only leave more visible.
+        let slot = ((d.max(0.0) / CHAIN_SLOT) as usize).max(self.first);
+        if slot >= self.slots.len() {
+            self.slots.resize_with(slot + 1, Vec::new);
+        }
+        self.slots[slot].push((d, e, pieces));
+        self.len += 1;
+    }
+
+    /// Move every chain nearer than `r` into `out`.
+    fn take_nearer(&mut self, r: f64, out: &mut Vec<(f64, u32, u32)>) {
+        if self.len == 0 {
+            return;
+        }
+        let whole = ((r.max(0.0) / CHAIN_SLOT) as usize).min(self.slots.len());
+        while self.first < whole {
+            let slot = &mut self.slots[self.first];
+            self.len -= slot.len();
+            out.append(slot);
+            self.first += 1;
+        }
+        if let Some(slot) = self.slots.get_mut(whole) {
+            let before = slot.len();
+            slot.retain(|&c| {
+                if c.0 < r {
+                    out.push(c);
+                    false
+                } else {
+                    true
+                }
+            });
+            self.len -= before - slot.len();
+        }
+    }
+}
 
 /// Something waiting in the nearest-first queue.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
@@ -64,9 +125,17 @@ pub struct Solver<'a> {
     stamp: u32,
     gathered: Vec<(f64, u32)>,
     queue: BinaryHeap<Reverse<(u64, Item)>>,
-    chains: BinaryHeap<Reverse<(u64, u32, u32)>>,
+    chains: ChainQueue,
+    ready: Vec<(f64, u32, u32)>,
     /// Edge buckets already swept into `chains`, as a Chebyshev ring radius.
     swept_rings: i64,
+    /// Per pyramid node, the greatest height of its objects not yet in the
+    /// unit's visible set (`NEG_INFINITY` when every one is).
+    remaining: Vec<f64>,
+    /// Stamps of the edges gathered for the cull map (kept apart from the
+    /// chain sweep's, which runs at the same time).
+    raster_stamp: Vec<u32>,
+    raster_stamp_value: u32,
 }
 
 impl<'a> Solver<'a> {
@@ -81,8 +150,12 @@ impl<'a> Solver<'a> {
             stamp: 0,
             gathered: Vec::new(),
             queue: BinaryHeap::new(),
-            chains: BinaryHeap::new(),
+            chains: ChainQueue::default(),
+            ready: Vec::new(),
             swept_rings: -1,
+            remaining: Vec::new(),
+            raster_stamp: vec![0; index.edges.len()],
+            raster_stamp_value: 0,
         }
     }
 
@@ -95,18 +168,86 @@ impl<'a> Solver<'a> {
         self.stamp
     }
 
-    /// Add to `visible` every object not hidden from any of `points` (the
-    /// samples of one unit, in order along its edge).
+    /// Add to `visible` every object not hidden from the sample at `v`.
+    pub fn solve(&mut self, v: DVec2, visible: &mut ObjectSet) {
+        self.solve_run(&[v], visible);
+    }
+
+    /// Add to `visible` every object not hidden from some point of `points`
+    /// (the samples of one unit: in order along a straight segment, or a
+    /// single point). Each sample decides only the objects not yet in
+    /// `visible`: later samples skip what earlier ones saw, and a pyramid
+    /// node is tested with the greatest height of its objects still to be
+    /// decided. The result depends on the points (in the order given), the
+    /// objects already in `visible` and the scene only, never on what the
+    /// solver solved before.
     pub fn solve_run(&mut self, points: &[DVec2], visible: &mut ObjectSet) {
+        let index = self.index;
+        self.remaining.clear();
+        self.remaining
+            .extend(index.pyramid.iter().map(|n| n.max_height));
+        let mut leaves: Vec<u32> = visible
+            .to_vec()
+            .into_iter()
+            .filter(|&o| (o as usize) < index.objects.len())
+            .map(|o| index.object_leaf[o as usize])
+            .collect();
+        leaves.sort_unstable();
+        leaves.dedup();
+        for leaf in leaves {
+            self.refresh_remaining(leaf, visible);
+        }
         for &p in points {
-            self.solve(p, visible);
+            self.solve_point(p, visible);
         }
     }
 
-    /// Add to `visible` every object not hidden from the sample at `v`.
-    pub fn solve(&mut self, v: DVec2, visible: &mut ObjectSet) {
-        self.window.reset_around(v, self.near_field);
-        self.rasterise_occluders(v);
+    /// Recompute the greatest height of the objects not yet visible under
+    /// `node` (a leaf) and its ancestors; `NEG_INFINITY` where none is left.
+    fn refresh_remaining(&mut self, node: u32, visible: &ObjectSet) {
+        let index = self.index;
+        let leaf = &index.pyramid[node as usize];
+        let mut top = leaf
+            .objects
+            .iter()
+            .filter(|&&o| !visible.contains(o as usize))
+            .map(|&o| index.objects[o as usize].height)
+            .fold(f64::NEG_INFINITY, f64::max);
+        for &c in &leaf.children {
+            top = top.max(self.remaining[c as usize]);
+        }
+        let mut n = node;
+        loop {
+            if self.remaining[n as usize] == top {
+                return;
+            }
+            self.remaining[n as usize] = top;
+            n = index.parent[n as usize];
+            if n == NO_PARENT {
+                return;
+            }
+            let node = &index.pyramid[n as usize];
+            top = node
+                .children
+                .iter()
+                .map(|&c| self.remaining[c as usize])
+                .fold(f64::NEG_INFINITY, f64::max);
+            top = node
+                .objects
+                .iter()
+                .filter(|&&o| !visible.contains(o as usize))
+                .map(|&o| index.objects[o as usize].height)
+                .fold(top, f64::max);
+        }
+    }
+
+    /// One sample: add every object not yet in `visible` that is not hidden
+    /// from `v`.
+    fn solve_point(&mut self, v: DVec2, visible: &mut ObjectSet) {
+        // The cull map is drawn only when a not yet visible object that
+        // overlaps the window is tested.
+        self.window.place_around(v, self.near_field);
+        let mut drawn = false;
         self.horizon.clear();
         self.chains.clear();
         self.swept_rings = -1;
@@ -121,19 +262,24 @@ impl<'a> Solver<'a> {
         let window = self.window.rect();
         while let Some(Reverse((k, item))) = self.queue.pop() {
             let r = f64::from_bits(k);
-            self.grow_horizon(v, r);
             match item {
                 Item::Node(n) => {
+                    // Only the objects not yet visible are left to decide:
+                    // the node hides them if it hides their greatest height.
+                    let top = self.remaining[n as usize];
+                    if top == f64::NEG_INFINITY {
+                        continue;
+                    }
+                    self.grow_horizon(v, r);
                     let node = &index.pyramid[n as usize];
-                    if self
-                        .horizon
-                        .hides_rect(v, self.eye, &node.rect, node.max_height)
-                    {
+                    if self.horizon.hides_rect(v, self.eye, &node.rect, top) {
                         continue;
                     }
                     for &c in &node.children {
-                        let d = rect_distance(v, &index.pyramid[c as usize].rect);
-                        self.queue.push(Reverse((key(d), Item::Node(c))));
+                        if self.remaining[c as usize] != f64::NEG_INFINITY {
+                            let d = rect_distance(v, &index.pyramid[c as usize].rect);
+                            self.queue.push(Reverse((key(d), Item::Node(c))));
+                        }
                     }
                     for &o in &node.objects {
                         if !visible.contains(o as usize) {
@@ -143,8 +289,19 @@ impl<'a> Solver<'a> {
                     }
                 }
                 Item::Object(o) => {
-                    if !visible.contains(o as usize) && !self.object_hidden(v, o, &window) {
+                    if visible.contains(o as usize) {
+                        continue;
+                    }
+                    self.grow_horizon(v, r);
+                    let object = &index.objects[o as usize];
+                    if !drawn && object.rect.intersects(&window) {
+                        self.window.clear_heights();
+                        self.rasterise_occluders(v);
+                        drawn = true;
+                    }
+                    if !self.object_hidden(v, o, &window) {
                         visible.insert(o as usize);
+                        self.refresh_remaining(index.object_leaf[o as usize], visible);
                     }
                 }
             }
@@ -187,15 +344,12 @@ impl<'a> Solver<'a> {
                 if height <= eye {
                     return;
                 }
-                // Every chain that starts in this bucket lies within
-                // MAX_CHAIN_PIECES pieces of it and is no higher than the
-                // bucket's highest edge: if that is all below the horizon
-                // already, no chain of the bucket can raise it (the horizon
-                // only grows).
-                let reach = index
-                    .bucket_rect(bucket)
-                    .grown(MAX_CHAIN_PIECES as f64 * MAX_EDGE_PIECE);
-                if horizon.hides_rect(v, eye, &reach, height) {
+                // Every chain that starts in this bucket lies in its chain
+                // rectangle and is no higher than the bucket's highest edge:
+                // if that is all below the horizon already, no chain of the
+                // bucket can raise it (the horizon only grows).
+                let reach = index.bucket_chain_rect(bucket, stride);
+                if reach.is_empty() || horizon.hides_rect(v, eye, reach, height) {
                     return;
                 }
                 for &e in index.bucket_edges(bucket) {
@@ -215,15 +369,14 @@ impl<'a> Solver<'a> {
                         d_max = d_max.max(c.b.distance(v));
                         cur = c.next;
                     }
-                    chains.push(Reverse((key(d_max), e, pieces)));
+                    chains.push(d_max, e, pieces);
                 }
             });
         }
-        while let Some(&Reverse((k, e, pieces))) = self.chains.peek() {
-            if f64::from_bits(k) >= r {
-                break;
-            }
-            self.chains.pop();
+        let mut ready = std::mem::take(&mut self.ready);
+        ready.clear();
+        self.chains.take_nearer(r, &mut ready);
+        for &(_, e, pieces) in &ready {
             let edge = &index.edges[e as usize];
             let mut cur = e;
             let mut count = 0;
@@ -238,6 +391,7 @@ impl<'a> Solver<'a> {
             }));
             self.horizon.add_chain(v, self.eye, edge.height, chain);
         }
+        self.ready = ready;
     }
 
     /// Fill the window with U_V from the occluder edges that reach into it,
@@ -245,9 +399,14 @@ impl<'a> Solver<'a> {
     pub fn rasterise_occluders(&mut self, v: DVec2) {
         let index = self.index;
         let rect = self.window.rect();
-        let stamp = self.next_stamp();
+        self.raster_stamp_value = self.raster_stamp_value.wrapping_add(1);
+        if self.raster_stamp_value == 0 {
+            self.raster_stamp.fill(0);
+            self.raster_stamp_value = 1;
+        }
+        let stamp = self.raster_stamp_value;
         self.gathered.clear();
-        let (edge_stamp, gathered) = (&mut self.edge_stamp, &mut self.gathered);
+        let (edge_stamp, gathered) = (&mut self.raster_stamp, &mut self.gathered);
         index.edges_near(&rect, |e| {
             if edge_stamp[e as usize] != stamp {
                 edge_stamp[e as usize] = stamp;

@@ -1,0 +1,132 @@
+//! A unit's visible set is a function of its points and the scene only:
+//! `Solver::solve_run` gives the same set whatever the solver solved
+//! before, it keeps everything its first sample sees, and a bake gives the
+//! same sets for any thread count.
+
+use citypvs::generate::{GenerateParams, generate_geojson};
+use citypvs::input::{InputOptions, read_city_bytes};
+use citypvs::prepare::{PrepareParams, Scene, prepare};
+use citypvs::visibility::bitset::ObjectSet;
+use citypvs::visibility::index::SceneIndex;
+use citypvs::visibility::samples::MeshTopology;
+use citypvs::visibility::solver::Solver;
+use citypvs::visibility::{VisibilityParams, compute_pvs};
+use glam::DVec2;
+
+fn scene(buildings: usize, seed: u64) -> Scene {
+    let geojson = generate_geojson(&GenerateParams { buildings, seed });
+    let city = read_city_bytes(
+        geojson.as_bytes(),
+        &format!("generated-{seed}"),
+        &InputOptions::default(),
+    )
+    .expect("read generated city");
+    prepare(city, &PrepareParams::default()).expect("prepare")
+}
+
+#[test]
+fn a_run_does_not_depend_on_what_the_solver_solved_before() {
+    let scene = scene(120, 4);
+    let params = VisibilityParams::for_eps(scene.eps);
+    let index = SceneIndex::build(&scene.city.buildings, &scene.occluders, params.pixel);
+    let topo = MeshTopology::of(&scene.cells.triangles);
+    let n = scene.city.buildings.len();
+    let spacing = 2.0 * scene.eps;
+    // Every 9th edge and every 9th vertex, so the test stays short but
+    // spans the whole city.
+    let mut runs: Vec<Vec<DVec2>> = (0..topo.edges.len())
+        .step_by(9)
+        .map(|e| topo.edge_interior_samples(e, spacing))
+        .collect();
+    runs.extend(topo.vertices.iter().step_by(9).map(|&v| vec![v]));
+    assert!(runs.len() > 20);
+    // Each run with a fresh solver.
+    let fresh: Vec<ObjectSet> = runs
+        .iter()
+        .map(|points| {
+            let mut solver = Solver::new(&index, params.eye_height, params.near_field);
+            let mut set = ObjectSet::new(n);
+            solver.solve_run(points, &mut set);
+            set
+        })
+        .collect();
+    // One solver reused forwards, and another one backwards.
+    let mut forwards = Solver::new(&index, params.eye_height, params.near_field);
+    let mut backwards = Solver::new(&index, params.eye_height, params.near_field);
+    let fwd: Vec<ObjectSet> = runs
+        .iter()
+        .map(|points| {
+            let mut set = ObjectSet::new(n);
+            forwards.solve_run(points, &mut set);
+            set
+        })
+        .collect();
+    let mut bwd: Vec<ObjectSet> = runs
+        .iter()
+        .rev()
+        .map(|points| {
+            let mut set = ObjectSet::new(n);
+            backwards.solve_run(points, &mut set);
+            set
+        })
+        .collect();
+    bwd.reverse();
+    for i in 0..runs.len() {
+        assert_eq!(
+            fwd[i], fresh[i],
+            "run {i}: depends on what was solved before"
+        );
+        assert_eq!(
+            bwd[i], fresh[i],
+            "run {i}: depends on what was solved before"
+        );
+    }
+    assert!(
+        fresh.iter().any(|s| s.count() > 0),
+        "the runs see something"
+    );
+}
+
+#[test]
+fn a_run_keeps_everything_its_first_sample_sees() {
+    // The first sample of a run starts from the same empty set as the
+    // sample alone, so it gives exactly the same verdicts.
+    let scene = scene(80, 9);
+    let params = VisibilityParams::for_eps(scene.eps);
+    let index = SceneIndex::build(&scene.city.buildings, &scene.occluders, params.pixel);
+    let topo = MeshTopology::of(&scene.cells.triangles);
+    let n = scene.city.buildings.len();
+    let mut solver = Solver::new(&index, params.eye_height, params.near_field);
+    for e in (0..topo.edges.len()).step_by(11) {
+        let points = topo.edge_interior_samples(e, 2.0 * scene.eps);
+        let Some(&first) = points.first() else {
+            continue;
+        };
+        let mut alone = ObjectSet::new(n);
+        solver.solve(first, &mut alone);
+        let mut run = ObjectSet::new(n);
+        solver.solve_run(&points, &mut run);
+        let mut union = run.clone();
+        union.union_with(&alone);
+        assert_eq!(
+            union, run,
+            "edge {e}: the run lost what its first sample sees"
+        );
+    }
+}
+
+#[test]
+fn bake_sets_do_not_depend_on_the_thread_count() {
+    let scene = scene(100, 2);
+    let params = VisibilityParams::for_eps(scene.eps);
+    let run = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| compute_pvs(&scene, &params, &|_| {}).unwrap().visible)
+    };
+    let one = run(1);
+    assert_eq!(one, run(2));
+    assert!(one.iter().any(|v| !v.is_empty()));
+}
