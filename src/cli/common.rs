@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use clap::Args;
 
 use crate::Result;
-use crate::cells::{CellParams, DEFAULT_MARGIN, DEFAULT_MAX_CELL_EDGE};
+use crate::cells::{CellParams, DEFAULT_MARGIN, DEFAULT_MAX_CELL_EDGE, DEFAULT_MIN_GAP};
 use crate::input::{DEFAULT_HEIGHT, Format, InputOptions};
 use crate::prepare::{DEFAULT_EPS, PrepareParams};
 
@@ -51,6 +51,10 @@ pub struct SceneArgs {
     /// Margin in metres added around the footprints' bounding box.
     #[arg(long, default_value_t = DEFAULT_MARGIN, value_name = "METRES")]
     pub margin: f64,
+    /// Narrowest gap in metres a viewer can stand in: free space narrower
+    /// than this gets no cells (occluders are unchanged); 0 keeps every gap.
+    #[arg(long, default_value_t = DEFAULT_MIN_GAP, value_name = "METRES")]
+    pub min_gap: f64,
     /// A GeoJSON polygon (in the city's frame) to use as region of interest.
     #[arg(long, value_name = "FILE")]
     pub region: Option<PathBuf>,
@@ -75,12 +79,19 @@ impl SceneArgs {
                 self.margin
             )));
         }
+        if !(self.min_gap >= 0.0 && self.min_gap.is_finite()) {
+            return Err(crate::Error::new(format!(
+                "--min-gap must be zero or a positive number of metres, got {}",
+                self.min_gap
+            )));
+        }
         Ok(PrepareParams {
             eps: self.eps,
             cells: CellParams {
                 margin: self.margin,
                 max_edge: self.max_cell_edge,
                 region,
+                min_gap: self.min_gap,
             },
         })
     }

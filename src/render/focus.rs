@@ -72,6 +72,9 @@ impl Focus {
             cells: Cells {
                 triangles: vec![scene.cells.triangles[cell]],
                 region: scene.cells.region.clone(),
+                open_area: scene.cells.open_area,
+                dropped: Vec::new(),
+                min_gap: scene.cells.min_gap,
             },
             eps: scene.eps,
             timings: Vec::new(),
