@@ -29,7 +29,11 @@ pub fn write(buildings: &[GeneratedBuilding], frame: &Frame) -> String {
 }
 
 /// The whole FeatureCollection with `decimals` decimals per coordinate.
-pub fn write_with_decimals(buildings: &[GeneratedBuilding], frame: &Frame, decimals: usize) -> String {
+pub fn write_with_decimals(
+    buildings: &[GeneratedBuilding],
+    frame: &Frame,
+    decimals: usize,
+) -> String {
     let mut out = String::from("{\"type\":\"FeatureCollection\",\"features\":[\n");
     for (i, b) in buildings.iter().enumerate() {
         let _ = write!(
