@@ -249,3 +249,34 @@ proptest! {
         prop_assert!(area <= cells.open_area + 1e-6);
     }
 }
+
+#[test]
+fn render_shows_the_dropped_gaps() {
+    use citypvs::render::{Picture, render};
+    let buildings = corridor(MIN_GAP * 0.9, 0.0);
+    let city = citypvs::input::City {
+        buildings,
+        frame: citypvs::input::Frame::Metric {
+            origin: DVec2::ZERO,
+            crs: None,
+        },
+        source_hash: [0; 32],
+        report: Default::default(),
+    };
+    let scene = prepare(city, &PrepareParams::default()).unwrap();
+    assert!(!scene.cells.dropped.is_empty());
+    let picture = Picture {
+        scene: &scene,
+        focus: None,
+        cull_map: None,
+        pvs_sizes: None,
+        view: None,
+        width: 3000,
+    };
+    let mut r = render(&picture).unwrap();
+    let middle = DVec2::new(10.0, 10.0 + MIN_GAP * 0.45);
+    assert_ne!(r.colour_at(middle), Some(citypvs::render::palette::DROPPED));
+    r.overlay_dropped(&scene);
+    assert_eq!(r.colour_at(middle), Some(citypvs::render::palette::DROPPED));
+    assert!(!r.png().unwrap().is_empty());
+}

@@ -25,6 +25,8 @@ pub enum Layer {
     Cullmap,
     /// Every cell coloured by the number of buildings it may see.
     PvsSize,
+    /// The free space dropped as narrower than --min-gap, in red.
+    Dropped,
 }
 
 #[derive(Args, Debug)]
@@ -234,7 +236,7 @@ pub fn draw(args: &RenderArgs, scene: &Scene) -> Result<Drawing> {
         (Some(c), Some(r)) => Some(view_around(scene, c, r)),
         _ => None,
     };
-    let rendered = render(&Picture {
+    let mut rendered = render(&Picture {
         scene,
         focus: focus.as_ref(),
         cull_map: cull_map.as_ref(),
@@ -242,6 +244,9 @@ pub fn draw(args: &RenderArgs, scene: &Scene) -> Result<Drawing> {
         view,
         width: args.size,
     })?;
+    if wants(Layer::Dropped) {
+        rendered.overlay_dropped(scene);
+    }
     Ok(Drawing { rendered, focus })
 }
 
