@@ -39,7 +39,11 @@ pub fn run(args: &GenerateArgs) -> Result<i32> {
         seed: args.seed,
     };
     let city = generate_styled(&params, args.style);
-    let text = crate::generate::generate_geojson_styled(&params, args.style);
+    let text = crate::generate::geojson::write_with_decimals(
+        &city.buildings,
+        &crate::generate::frame(),
+        crate::generate::decimals(args.style),
+    );
     crate::atomic::write_atomically(&args.output, text.as_bytes())?;
     let extent = crate::model::Rect::of_points(
         city.buildings

@@ -53,11 +53,15 @@ pub fn generate_styled(params: &GenerateParams, style: Style) -> GeneratedCity {
 /// millimetre misalignments must survive.
 pub fn generate_geojson_styled(params: &GenerateParams, style: Style) -> String {
     let city = generate_styled(params, style);
-    let decimals = match style {
+    geojson::write_with_decimals(&city.buildings, &frame(), decimals(style))
+}
+
+/// Decimals of the lon/lat coordinates written for a style.
+pub fn decimals(style: Style) -> usize {
+    match style {
         Style::Default => 7,
         Style::OldTown => 9,
-    };
-    geojson::write_with_decimals(&city.buildings, &frame(), decimals)
+    }
 }
 
 /// The fixed geographic origin of generated cities (local (0, 0)): lon, lat in degrees.
