@@ -39,7 +39,7 @@ pub const MIN_CORNER_DEG: f64 = 80.0;
 /// 0.78 min_gap^2).
 const MIN_PIECE_AREA: f64 = 1e-4;
 
-/// The kept free space and what was dropped.
+/// The kept free space.
 pub struct Opened {
     /// Free space where a viewer fits, in the model's conventions.
     pub free: MultiPolygon,
@@ -48,7 +48,7 @@ pub struct Opened {
 /// The free space opened by the structuring polygon of width `min_gap`,
 /// then cleaned up. `min_gap <= 0` returns `free` unchanged.
 pub fn open_free_space(free: &MultiPolygon, min_gap: f64) -> Opened {
-    if !(min_gap > 0.0) || free.is_empty() {
+    if min_gap.is_nan() || min_gap <= 0.0 || free.is_empty() {
         return Opened { free: free.clone() };
     }
     let r = 0.5 * min_gap;
