@@ -188,6 +188,33 @@ fn old_town_cells_are_rarely_thin() {
         summary.cells
     );
     assert!(summary.dropped_area_m2 > 0.0);
+    // No cell corner inside or within 0.9 mm of any footprint.
+    let mut grid: std::collections::HashMap<(i64, i64), Vec<DVec2>> = Default::default();
+    let key = |p: DVec2| ((p.x / 10.0).floor() as i64, (p.y / 10.0).floor() as i64);
+    for t in &scene.cells.triangles {
+        for &v in t {
+            grid.entry(key(v)).or_default().push(v);
+        }
+    }
+    for b in &scene.city.buildings {
+        let r = citypvs::model::multipolygon_bounds(&b.footprint).grown(0.01);
+        let (k0, k1) = (key(r.min), key(r.max));
+        for kx in k0.0..=k1.0 {
+            for ky in k0.1..=k1.1 {
+                for &v in grid.get(&(kx, ky)).into_iter().flatten() {
+                    assert!(!point_in_multipolygon(v, &b.footprint), "{v} in {}", b.id);
+                    for p in &b.footprint {
+                        for ring in std::iter::once(&p.exterior).chain(p.holes.iter()) {
+                            for i in 0..ring.len() {
+                                let d = distance_to_segment(v, ring[i], ring[(i + 1) % ring.len()]);
+                                assert!(d >= 0.9e-3, "{v} {d} m from {}", b.id);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
     // Without the minimum gap the same city is full of slivers.
     let mut raw = PrepareParams::default();
     raw.cells.min_gap = 0.0;
