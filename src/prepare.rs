@@ -34,6 +34,7 @@ pub fn cell_params(settings: &Settings) -> CellParams {
         margin: settings.margin,
         max_edge: settings.max_cell_edge,
         region: settings.region.clone(),
+        min_gap: settings.min_gap,
     }
 }
 
@@ -83,7 +84,28 @@ pub struct PrepareSummary {
     pub region_area_m2: f64,
     pub footprint_area_m2: f64,
     pub free_area_m2: f64,
+    /// Free area dropped as narrower than the minimum gap (or within the
+    /// clearance along the footprints).
+    pub dropped_area_m2: f64,
+    /// The minimum gap used, metres.
+    pub min_gap_m: f64,
+    /// Cell quality: the smallest altitude of any cell (metres) and how many
+    /// cells are thinner than [`THIN_CELL`].
+    pub thinnest_cell_m: f64,
+    pub thin_cells: usize,
     pub timings: Vec<StageTime>,
+}
+
+/// Cells with a smaller altitude than this (metres) count as thin.
+pub const THIN_CELL: f64 = 0.05;
+
+/// The smallest altitude of a triangle: twice its area over its longest edge.
+pub fn triangle_altitude(t: &[glam::DVec2; 3]) -> f64 {
+    let area2 = (t[1] - t[0]).perp_dot(t[2] - t[0]).abs();
+    let longest = (0..3)
+        .map(|i| t[i].distance(t[(i + 1) % 3]))
+        .fold(0.0, f64::max);
+    if longest > 0.0 { area2 / longest } else { 0.0 }
 }
 
 /// Summarise a prepared scene.
@@ -102,6 +124,13 @@ pub fn summary(scene: &Scene) -> PrepareSummary {
         .iter()
         .map(|t| 0.5 * (t[1] - t[0]).perp_dot(t[2] - t[0]))
         .sum();
+    let altitudes: Vec<f64> = scene
+        .cells
+        .triangles
+        .iter()
+        .map(triangle_altitude)
+        .collect();
+    let thinnest = altitudes.iter().copied().fold(f64::INFINITY, f64::min);
     let mut warnings = report.repaired.clone();
     warnings.extend(report.skipped.iter().cloned());
     PrepareSummary {
@@ -117,6 +146,10 @@ pub fn summary(scene: &Scene) -> PrepareSummary {
         region_area_m2: polygon_area(&scene.cells.region),
         footprint_area_m2: footprint_area,
         free_area_m2: free_area,
+        dropped_area_m2: (scene.cells.open_area - free_area).max(0.0),
+        min_gap_m: scene.cells.min_gap,
+        thinnest_cell_m: if thinnest.is_finite() { thinnest } else { 0.0 },
+        thin_cells: altitudes.iter().filter(|&&a| a < THIN_CELL).count(),
         timings: scene.timings.clone(),
     }
 }
@@ -152,6 +185,19 @@ impl PrepareSummary {
             s,
             "area            region {:.0} m2, footprints {:.0} m2, free {:.0} m2",
             self.region_area_m2, self.footprint_area_m2, self.free_area_m2
+        );
+        let _ = writeln!(
+            s,
+            "narrow          {:.0} m2 of free space dropped (min gap {} m)",
+            self.dropped_area_m2, self.min_gap_m
+        );
+        let _ = writeln!(
+            s,
+            "cell quality    thinnest {:.3} m, {} cells ({:.2}%) thinner than {} m",
+            self.thinnest_cell_m,
+            self.thin_cells,
+            100.0 * self.thin_cells as f64 / self.cells.max(1) as f64,
+            THIN_CELL
         );
         for t in &self.timings {
             let _ = writeln!(s, "time {:<11} {:.3} s", t.stage, t.seconds);

@@ -23,8 +23,8 @@ pub const DEFAULT_MAX_CELL_EDGE: f64 = 30.0;
 /// Default half-size in metres of the near-field cull map around a sample.
 pub const DEFAULT_NEAR_FIELD: f64 = 48.0;
 /// Default minimum width in metres of a gap between footprints that counts
-/// as free space (0: every gap is free space).
-pub const DEFAULT_MIN_GAP: f64 = 0.0;
+/// as free space (a person needs about half a metre; docs/geometry.md).
+pub const DEFAULT_MIN_GAP: f64 = 0.5;
 
 /// The largest number of pixels one near-field cull map may hold
 /// (a window of 4096 x 4096 f32 heights is 64 MiB per thread).

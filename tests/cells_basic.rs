@@ -23,6 +23,7 @@ fn cells_cover_the_box_minus_footprints_and_courtyards_get_cells() {
         margin: 10.0,
         max_edge: 7.0,
         region: None,
+        min_gap: 0.0,
     };
     let cells = triangulate(&blocks, &params).unwrap();
     let region_area = 90.0 * 60.0; // box (-20..50, -20..20) grown by 10
@@ -70,6 +71,7 @@ fn a_given_region_clips_the_footprints() {
             exterior: region,
             holes: vec![],
         }),
+        min_gap: 0.0,
     };
     let cells = triangulate(&blocks, &params).unwrap();
     let total: f64 = cells.triangles.iter().map(area).sum();
@@ -105,6 +107,7 @@ fn degenerate_input_is_an_error() {
         margin: 1e7,
         max_edge: 1.0,
         region: None,
+        min_gap: 0.0,
     };
     assert!(triangulate(&blocks, &huge).is_err());
 }

@@ -98,7 +98,7 @@ proptest! {
     ) {
         let scene = scene(seed);
         let blocks = merge_blocks(&scene.buildings);
-        let params = CellParams { margin, max_edge, region: None };
+        let params = CellParams { margin, max_edge, region: None, min_gap: 0.0 };
         let cells = triangulate(&blocks, &params).unwrap();
         let footprint_area: f64 = blocks.iter().map(|b| multipolygon_area(&b.levels[0].area)).sum();
         let expected = polygon_area(&cells.region) - footprint_area;
@@ -122,7 +122,7 @@ proptest! {
         let r_min = rng.random_range(15.0..40.0);
         let courtyard = rng.random_bool(0.3);
         let region = star_polygon(&mut rng, centre, r_min, r_min + 40.0, courtyard);
-        let params = CellParams { margin: 0.0, max_edge, region: Some(region.clone()) };
+        let params = CellParams { margin: 0.0, max_edge, region: Some(region.clone()), min_gap: 0.0 };
         let footprints: Vec<Polygon> = scene.buildings.iter().flat_map(|b| b.footprint.clone()).collect();
         match triangulate(&blocks, &params) {
             Ok(cells) => {

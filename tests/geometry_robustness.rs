@@ -106,7 +106,7 @@ proptest! {
             .collect();
         let blocks = merge_blocks(&buildings);
         let _ = shrink_blocks(&blocks, eps);
-        let params = CellParams { margin: 10.0, max_edge, region: None };
+        let params = CellParams { margin: 10.0, max_edge, region: None, min_gap: 0.0 };
         if let Ok(cells) = triangulate(&blocks, &params) {
             for t in &cells.triangles {
                 prop_assert!((t[1] - t[0]).perp_dot(t[2] - t[0]) > 0.0);

@@ -72,6 +72,7 @@ fn kotka_pbf_matches_its_geojson() {
     // Both are centred on the same buildings, so local frames agree.
     assert_eq!(pbf.frame, json.frame);
     let mut worst: f64 = 0.0;
+    let mut open_sided = Vec::new();
     for (id, a) in &p {
         let b = &j[id];
         assert!(
@@ -80,12 +81,19 @@ fn kotka_pbf_matches_its_geojson() {
             a.height,
             b.height
         );
-        assert_eq!(a.occludes, b.occludes, "{id}");
+        // The GeoJSON conversion kept no `building` tags: the PBF's roofs
+        // and carports (open-sided, never occluders) occlude there.
+        if a.occludes != b.occludes {
+            assert!(!a.occludes && b.occludes, "{id}");
+            open_sided.push(id.clone());
+        }
         let d = one_sided_distance(a, b).max(one_sided_distance(b, a));
         assert!(d < 0.01, "{id}: footprints differ by {d} m");
         worst = worst.max(d);
     }
     eprintln!("largest footprint difference: {worst:e} m");
+    eprintln!("open-sided in the PBF: {open_sided:?}");
+    assert_eq!(open_sided, vec!["w369849807".to_string()]);
 }
 
 #[test]

@@ -5,12 +5,11 @@
 
 use citypvs::generate::{GenerateParams, generate_geojson};
 use citypvs::input::{InputOptions, read_city_bytes};
-use citypvs::prepare::{PrepareParams, Scene, prepare};
+use citypvs::prepare::{Scene, prepare};
 use citypvs::visibility::bitset::ObjectSet;
 use citypvs::visibility::index::SceneIndex;
 use citypvs::visibility::samples::MeshTopology;
 use citypvs::visibility::solver::Solver;
-use citypvs::visibility::{VisibilityParams, compute_pvs};
 use glam::DVec2;
 
 fn scene(buildings: usize, seed: u64) -> Scene {
@@ -21,17 +20,17 @@ fn scene(buildings: usize, seed: u64) -> Scene {
         &InputOptions::default(),
     )
     .expect("read generated city");
-    prepare(city, &PrepareParams::default()).expect("prepare")
+    prepare(city, &citypvs::Settings::default()).expect("prepare")
 }
 
 #[test]
 fn a_run_does_not_depend_on_what_the_solver_solved_before() {
     let scene = scene(120, 4);
-    let params = VisibilityParams::for_eps(scene.eps);
+    let params = &scene.settings;
     let index = SceneIndex::build(&scene.city.buildings, &scene.occluders, params.pixel);
     let topo = MeshTopology::of(&scene.cells.triangles);
     let n = scene.city.buildings.len();
-    let spacing = 2.0 * scene.eps;
+    let spacing = scene.settings.sample_spacing();
     // Every 9th edge and every 9th vertex, so the test stays short but
     // spans the whole city.
     let mut runs: Vec<Vec<DVec2>> = (0..topo.edges.len())
@@ -92,13 +91,13 @@ fn a_run_keeps_everything_its_first_sample_sees() {
     // The first sample of a run starts from the same empty set as the
     // sample alone, so it gives exactly the same verdicts.
     let scene = scene(80, 9);
-    let params = VisibilityParams::for_eps(scene.eps);
+    let params = &scene.settings;
     let index = SceneIndex::build(&scene.city.buildings, &scene.occluders, params.pixel);
     let topo = MeshTopology::of(&scene.cells.triangles);
     let n = scene.city.buildings.len();
     let mut solver = Solver::new(&index, params.eye_height, params.near_field);
     for e in (0..topo.edges.len()).step_by(11) {
-        let points = topo.edge_interior_samples(e, 2.0 * scene.eps);
+        let points = topo.edge_interior_samples(e, scene.settings.sample_spacing());
         let Some(&first) = points.first() else {
             continue;
         };
@@ -118,13 +117,17 @@ fn a_run_keeps_everything_its_first_sample_sees() {
 #[test]
 fn bake_sets_do_not_depend_on_the_thread_count() {
     let scene = scene(100, 2);
-    let params = VisibilityParams::for_eps(scene.eps);
     let run = |threads: usize| {
         rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .build()
             .unwrap()
-            .install(|| compute_pvs(&scene, &params, &|_| {}).unwrap().visible)
+            .install(|| {
+                citypvs::visibility::VisibilityEngine::new(&scene)
+                    .unwrap()
+                    .solve_all(&|_| {})
+                    .unwrap()
+            })
     };
     let one = run(1);
     assert_eq!(one, run(2));

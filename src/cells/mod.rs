@@ -8,6 +8,7 @@
 mod bisect;
 mod lattice;
 mod mesh;
+pub mod narrow;
 mod region;
 
 pub use mesh::MAX_VERTICES;
@@ -16,13 +17,9 @@ use glam::DVec2;
 
 use crate::Result;
 use crate::geometry::Block;
-use crate::model::Polygon;
+use crate::model::{MultiPolygon, Polygon, multipolygon_area};
 
-/// Default margin in metres by which the footprints' bounding box is grown
-/// to make the region of interest.
-pub const DEFAULT_MARGIN: f64 = 50.0;
-/// Default upper bound on a cell edge, in metres.
-pub const DEFAULT_MAX_CELL_EDGE: f64 = 30.0;
+pub use crate::settings::{DEFAULT_MARGIN, DEFAULT_MAX_CELL_EDGE, DEFAULT_MIN_GAP};
 
 /// How to cut free space into cells.
 #[derive(Clone, Debug)]
@@ -33,6 +30,9 @@ pub struct CellParams {
     pub max_edge: f64,
     /// A user-given region of interest (local metres) instead of the box.
     pub region: Option<Polygon>,
+    /// Free space narrower than this (metres) is not free space: no cells
+    /// there. 0 keeps every gap. Occluders never change.
+    pub min_gap: f64,
 }
 
 impl Default for CellParams {
@@ -41,6 +41,7 @@ impl Default for CellParams {
             margin: DEFAULT_MARGIN,
             max_edge: DEFAULT_MAX_CELL_EDGE,
             region: None,
+            min_gap: DEFAULT_MIN_GAP,
         }
     }
 }
@@ -52,6 +53,14 @@ pub struct Cells {
     pub triangles: Vec<[DVec2; 3]>,
     /// The region of interest that was triangulated.
     pub region: Polygon,
+    /// Area in square metres of the free space (region minus footprints)
+    /// before narrow parts were dropped.
+    pub open_area: f64,
+    /// The free space that was dropped as too narrow (or within the
+    /// clearance of a footprint), for display.
+    pub dropped: MultiPolygon,
+    /// The minimum gap the free space was opened with (metres).
+    pub min_gap: f64,
 }
 
 /// Triangulate the free space of the region minus the blocks' ground
@@ -65,13 +74,32 @@ pub fn triangulate(blocks: &[Block], params: &CellParams) -> Result<Cells> {
             params.max_edge
         )));
     }
+    if !(params.min_gap >= 0.0 && params.min_gap.is_finite()) {
+        return Err(crate::Error::new(format!(
+            "cells: the minimum gap must be zero or a positive number of metres, got {}",
+            params.min_gap
+        )));
+    }
     let region = region::region(blocks, params)?;
-    let free = region::free_space(&region, blocks);
+    let all_free = region::free_space(&region, blocks);
+    let open_area = multipolygon_area(&all_free);
+    let free = narrow::open_free_space(&all_free, params.min_gap).free;
+    let dropped = if params.min_gap > 0.0 {
+        region::difference(&all_free, &free)
+    } else {
+        Vec::new()
+    };
     if free.is_empty() {
         return Err(crate::Error::new(
             "cells: no free space is left in the region once the footprints are removed",
         ));
     }
     let triangles = mesh::triangulate_free_space(&free, params.max_edge)?;
-    Ok(Cells { triangles, region })
+    Ok(Cells {
+        triangles,
+        region,
+        open_area,
+        dropped,
+        min_gap: params.min_gap,
+    })
 }

@@ -89,3 +89,10 @@ pub fn free_space(region: &Polygon, blocks: &[Block]) -> MultiPolygon {
         0.0,
     )
 }
+
+/// `a` minus `b`, pieces under 1e-6 m2 left out.
+pub fn difference(a: &MultiPolygon, b: &MultiPolygon) -> MultiPolygon {
+    let a = multipolygon_to_geo(a);
+    let b = multipolygon_to_geo(b);
+    multipolygon_from_geo(&a.difference_with_fill_rule(&b, FillRule::NonZero), 1e-6)
+}

@@ -19,6 +19,9 @@ pub struct BenchArgs {
     /// Seed of the generated cities.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Style of the generated cities (`default` or `old-town`).
+    #[arg(long, value_enum, default_value_t = crate::generate::Style::Default)]
+    pub style: crate::generate::Style,
     /// Worker threads [default: all cores].
     #[arg(long, value_name = "N")]
     pub threads: Option<usize>,
@@ -162,10 +165,13 @@ pub fn run(args: &BenchArgs) -> Result<i32> {
     let dir = tempfile::tempdir()
         .map_err(|e| crate::Error::io(format!("cannot make a temporary folder: {e}")))?;
     for &n in &args.buildings {
-        let text = crate::generate::generate_geojson(&crate::generate::GenerateParams {
-            buildings: n,
-            seed: args.seed,
-        });
+        let text = crate::generate::generate_geojson_styled(
+            &crate::generate::GenerateParams {
+                buildings: n,
+                seed: args.seed,
+            },
+            args.style,
+        );
         let city = read_city_bytes(
             text.as_bytes(),
             &format!("<generated {n}>"),

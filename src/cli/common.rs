@@ -51,6 +51,10 @@ pub struct SceneArgs {
     /// Margin in metres added around the footprints' bounding box [default: 50].
     #[arg(long, value_name = "METRES")]
     pub margin: Option<f64>,
+    /// Narrowest gap in metres a viewer can stand in: free space narrower
+    /// than this gets no cells (occluders are unchanged); 0 keeps every gap [default: 0.5].
+    #[arg(long, value_name = "METRES")]
+    pub min_gap: Option<f64>,
     /// A GeoJSON polygon (in the city's frame) to use as region of interest.
     #[arg(long, value_name = "FILE")]
     pub region: Option<PathBuf>,
@@ -83,6 +87,9 @@ impl SceneArgs {
         }
         if self.margin.is_some() {
             out.push("--margin");
+        }
+        if self.min_gap.is_some() {
+            out.push("--min-gap");
         }
         out
     }
@@ -128,7 +135,7 @@ pub fn settings(
         max_cell_edge: scene.max_cell_edge,
         margin: scene.margin,
         near_field: view.near_field,
-        min_gap: None,
+        min_gap: scene.min_gap,
         region: scene.region(frame)?,
     })
 }

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use clap::Args;
 
 use crate::Result;
-use crate::generate::{GenerateParams, generate_city, geojson};
+use crate::generate::{GenerateParams, Style, generate_styled};
 
 /// The largest city the command makes (about 5,000 km^2).
 pub const MAX_BUILDINGS: usize = 5_000_000;
@@ -19,6 +19,10 @@ pub struct GenerateArgs {
     /// Random seed; the same seed gives the same city.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// The look of the city: `default`, or `old-town` (perimeter blocks of
+    /// separate buildings with the misaligned shared walls of real map data).
+    #[arg(long, value_enum, default_value_t = Style::Default)]
+    pub style: Style,
     /// Output GeoJSON file.
     #[arg(short, long, value_name = "FILE")]
     pub output: PathBuf,
@@ -32,11 +36,16 @@ pub fn run(args: &GenerateArgs) -> Result<i32> {
         )));
     }
     crate::atomic::check_output(&args.output, &[])?;
-    let city = generate_city(&GenerateParams {
+    let params = GenerateParams {
         buildings: args.buildings,
         seed: args.seed,
-    });
-    let text = geojson::write(&city.buildings, &crate::generate::frame());
+    };
+    let city = generate_styled(&params, args.style);
+    let text = crate::generate::geojson::write_with_decimals(
+        &city.buildings,
+        &crate::generate::frame(),
+        crate::generate::decimals(args.style),
+    );
     crate::atomic::write_atomically(&args.output, text.as_bytes())?;
     let extent = crate::model::Rect::of_points(
         city.buildings

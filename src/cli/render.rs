@@ -21,6 +21,8 @@ pub enum Layer {
     Cullmap,
     /// Every cell coloured by the number of buildings it may see.
     PvsSize,
+    /// The free space dropped as narrower than --min-gap, in red.
+    Dropped,
 }
 
 #[derive(Args, Debug)]
@@ -193,7 +195,7 @@ pub fn draw(args: &RenderArgs, scene: &Scene, reader: Option<&PvsReader>) -> Res
             scene.cells.triangles.len()
         );
     }
-    crate::render::draw(
+    let mut drawing = crate::render::draw(
         scene,
         reader,
         &Request {
@@ -203,7 +205,11 @@ pub fn draw(args: &RenderArgs, scene: &Scene, reader: Option<&PvsReader>) -> Res
             radius: args.radius,
             width: args.size,
         },
-    )
+    )?;
+    if args.layer.contains(&Layer::Dropped) {
+        drawing.rendered.overlay_dropped(scene);
+    }
+    Ok(drawing)
 }
 
 pub fn run(args: &RenderArgs) -> Result<i32> {

@@ -11,20 +11,29 @@ use super::GeneratedBuilding;
 use crate::input::Frame;
 
 /// One closed ring as a JSON array of [lon, lat] pairs.
-fn write_ring(out: &mut String, ring: &[DVec2], frame: &Frame) {
+fn write_ring(out: &mut String, ring: &[DVec2], frame: &Frame, decimals: usize) {
     out.push('[');
     for (i, p) in ring.iter().chain(ring.first()).enumerate() {
         if i > 0 {
             out.push(',');
         }
         let (lon, lat) = frame.to_input(*p);
-        let _ = write!(out, "[{lon:.7},{lat:.7}]");
+        let _ = write!(out, "[{lon:.decimals$},{lat:.decimals$}]");
     }
     out.push(']');
 }
 
-/// The whole FeatureCollection, one feature per line.
+/// The whole FeatureCollection, one feature per line, 7 decimals.
 pub fn write(buildings: &[GeneratedBuilding], frame: &Frame) -> String {
+    write_with_decimals(buildings, frame, 7)
+}
+
+/// The whole FeatureCollection with `decimals` decimals per coordinate.
+pub fn write_with_decimals(
+    buildings: &[GeneratedBuilding],
+    frame: &Frame,
+    decimals: usize,
+) -> String {
     let mut out = String::from("{\"type\":\"FeatureCollection\",\"features\":[\n");
     for (i, b) in buildings.iter().enumerate() {
         let _ = write!(
@@ -34,10 +43,10 @@ pub fn write(buildings: &[GeneratedBuilding], frame: &Frame) -> String {
             b.height,
             b.kind.name()
         );
-        write_ring(&mut out, &b.footprint.exterior, frame);
+        write_ring(&mut out, &b.footprint.exterior, frame, decimals);
         for hole in &b.footprint.holes {
             out.push(',');
-            write_ring(&mut out, hole, frame);
+            write_ring(&mut out, hole, frame, decimals);
         }
         out.push_str("]}}");
         if i + 1 < buildings.len() {

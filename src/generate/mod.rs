@@ -12,6 +12,7 @@
 pub mod buildings;
 pub mod geojson;
 pub mod layout;
+pub mod oldtown;
 
 use glam::DVec2;
 use rand::SeedableRng;
@@ -25,6 +26,42 @@ pub struct GenerateParams {
     /// Approximate number of buildings (the generator stops at exactly this many).
     pub buildings: usize,
     pub seed: u64,
+}
+
+/// The look of a generated city.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum Style {
+    /// Streets, row blocks with exactly shared walls, courtyards, houses,
+    /// towers, a square and a river.
+    #[default]
+    Default,
+    /// Perimeter blocks of separate wall-sharing buildings drawn with the
+    /// small misalignments of real map data (see [`oldtown`]).
+    OldTown,
+}
+
+/// The city in the given style.
+pub fn generate_styled(params: &GenerateParams, style: Style) -> GeneratedCity {
+    match style {
+        Style::Default => generate_city(params),
+        Style::OldTown => oldtown::generate_old_town(params),
+    }
+}
+
+/// The GeoJSON text of the city in the given style: 7 decimals for the
+/// default style (about 1 cm), 9 (about 0.1 mm) for the old town, whose
+/// millimetre misalignments must survive.
+pub fn generate_geojson_styled(params: &GenerateParams, style: Style) -> String {
+    let city = generate_styled(params, style);
+    geojson::write_with_decimals(&city.buildings, &frame(), decimals(style))
+}
+
+/// Decimals of the lon/lat coordinates written for a style.
+pub fn decimals(style: Style) -> usize {
+    match style {
+        Style::Default => 7,
+        Style::OldTown => 9,
+    }
 }
 
 /// The fixed geographic origin of generated cities (local (0, 0)): lon, lat in degrees.

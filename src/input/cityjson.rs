@@ -342,9 +342,10 @@ pub fn parse(root: &Value, name: &str, _options: &InputOptions) -> Result<Parsed
     let mut roots = FamilyRoots::default();
     for (index, (id, object)) in objects.iter().enumerate() {
         let kind = object.get("type").and_then(Value::as_str).unwrap_or("");
-        if kind != "Building" && kind != "BuildingPart" {
+        if kind != "Building" && kind != "BuildingPart" && kind != "BuildingInstallation" {
             continue;
         }
+        let open_sided = super::opensided::cityjson_open_sided(kind, object.get("attributes"));
         parsed.features_read += 1;
         let geometries = object.get("geometry").and_then(Value::as_array);
         let best = geometries
@@ -370,15 +371,15 @@ pub fn parse(root: &Value, name: &str, _options: &InputOptions) -> Result<Parsed
         let root = roots
             .of(objects, id)
             .map_err(|e| feature_error(name, Some(id), index, &e))?;
-        extents.push((index, id, root, extent));
+        extents.push((index, id, root, extent, open_sided));
     }
     // A building and its parts stand on one ground: the lowest vertex of all of them.
     let mut ground: BTreeMap<&str, f64> = BTreeMap::new();
-    for (_, _, root, extent) in &extents {
+    for (_, _, root, extent, _) in &extents {
         let g = ground.entry(root).or_insert(f64::INFINITY);
         *g = g.min(extent.low);
     }
-    for (index, id, root, extent) in extents {
+    for (index, id, root, extent, open_sided) in extents {
         let ground = ground[root];
         let height = check_height(extent.high - ground)
             .map_err(|e| feature_error(name, Some(id), index, &e))?;
@@ -388,7 +389,7 @@ pub fn parse(root: &Value, name: &str, _options: &InputOptions) -> Result<Parsed
             id_given: true,
             polygons: extent.polygons,
             height,
-            occludes: extent.low <= ground + LIFT_TOLERANCE,
+            occludes: !open_sided && extent.low <= ground + LIFT_TOLERANCE,
             notes: Vec::new(),
         });
     }

@@ -236,9 +236,16 @@ fn height(props: &Map<String, Value>, options: &InputOptions) -> FeatureResult<f
     check_height(options.default_height).map_err(|e| format!("--default-height: {e}"))
 }
 
-/// Lifted parts (`min_height` > 0) are objects but not occluders.
+/// Lifted parts (`min_height` > 0) and open-sided structures (`building`
+/// or `building:part` = `roof` / `carport`) are objects but not occluders.
 fn occludes(props: &Map<String, Value>) -> FeatureResult<bool> {
-    Ok(length_property(props, "min_height")?.is_none_or(|m| m <= 0.0))
+    let open_sided = ["building", "building:part"].iter().any(|k| {
+        props
+            .get(*k)
+            .and_then(Value::as_str)
+            .is_some_and(super::opensided::is_open_sided)
+    });
+    Ok(!open_sided && length_property(props, "min_height")?.is_none_or(|m| m <= 0.0))
 }
 
 fn id_text(value: &Value) -> Option<String> {

@@ -12,6 +12,7 @@ pub mod cityjson;
 pub mod detect;
 pub mod geojson;
 pub mod height;
+pub mod opensided;
 pub mod osm;
 pub use crate::frame as projection;
 pub mod repair;

@@ -70,11 +70,18 @@ fn each_element(bytes: &[u8], name: &str, f: impl FnMut(Element<'_>)) -> Result<
 }
 
 /// Height, whether the part occludes, and notes about unusable tags.
+/// Lifted parts and open-sided structures (`building=roof` / `carport`,
+/// `building:part=roof`) do not occlude.
 fn height(tags: &Tags, options: &InputOptions, notes: &mut Vec<String>) -> (f64, bool) {
-    let lifted = tags
-        .get("min_height")
-        .and_then(|t| parse_length(t))
-        .is_some_and(|m| m > 0.0)
+    let open_sided = ["building", "building:part"].iter().any(|k| {
+        tags.get(*k)
+            .is_some_and(|v| super::opensided::is_open_sided(v))
+    });
+    let lifted = open_sided
+        || tags
+            .get("min_height")
+            .and_then(|t| parse_length(t))
+            .is_some_and(|m| m > 0.0)
         || tags
             .get("building:min_level")
             .and_then(|t| parse_number(t))

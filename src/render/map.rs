@@ -323,3 +323,36 @@ pub fn draw_samples(map: &mut Pixmap, vp: &Viewport, samples: &[DVec2], radius: 
         );
     }
 }
+
+/// Fill polygons in one flat colour, outlined with a hairline of the same
+/// colour so that parts thinner than a pixel still show.
+pub fn fill_polygons(
+    map: &mut Pixmap,
+    vp: &Viewport,
+    polygons: &[Polygon],
+    colour: Rgb,
+    line_width: f32,
+) {
+    let mut pb = PathBuilder::new();
+    for polygon in polygons {
+        if multipolygon_bounds(std::slice::from_ref(polygon)).intersects(&vp.view) {
+            add_polygon(&mut pb, vp, polygon);
+        }
+    }
+    if let Some(path) = pb.finish() {
+        map.fill_path(
+            &path,
+            &paint(colour, 1.0, true),
+            FillRule::EvenOdd,
+            Transform::identity(),
+            None,
+        );
+        map.stroke_path(
+            &path,
+            &paint(colour, 1.0, true),
+            &stroke(line_width),
+            Transform::identity(),
+            None,
+        );
+    }
+}

@@ -83,6 +83,34 @@ impl Rendered {
     }
 }
 
+impl Rendered {
+    /// Draw the free space dropped as too narrow (`scene.cells.dropped`) in
+    /// red over the map.
+    pub fn overlay_dropped(&mut self, scene: &Scene) {
+        let line = map::hairline(self.pixmap.width());
+        // Drawn on a map-sized layer so nothing spills into the panel.
+        let Some(mut layer) = Pixmap::new(self.viewport.width, self.viewport.height) else {
+            return;
+        };
+        map::fill_polygons(
+            &mut layer,
+            &self.viewport,
+            &scene.cells.dropped,
+            palette::DROPPED,
+            line,
+        );
+        self.pixmap.draw_pixmap(
+            0,
+            0,
+            layer.as_ref(),
+            &PixmapPaint::default(),
+            Transform::identity(),
+            None,
+        );
+        self.exact_colours.push(palette::DROPPED);
+    }
+}
+
 /// The bounding rectangle of a scene: its cells, its region and its buildings.
 pub fn scene_bounds(scene: &Scene) -> Rect {
     let cells = Rect::of_points(scene.cells.triangles.iter().flatten());

@@ -51,6 +51,8 @@ pub const NEUTRAL_BUILDING: Rgb = Rgb(96, 96, 96);
 pub const BUILDING_OUTLINE: Rgb = Rgb(60, 60, 60);
 /// Shrunk occluder outlines (cull-map layer).
 pub const OCCLUDER_OUTLINE: Rgb = Rgb(20, 20, 20);
+/// Free space dropped as narrower than the minimum gap.
+pub const DROPPED: Rgb = Rgb(220, 30, 30);
 /// Sample points.
 pub const SAMPLE: Rgb = Rgb(0, 0, 0);
 /// Text, scale bar and north arrow.

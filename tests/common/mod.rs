@@ -114,6 +114,9 @@ pub fn hand_scene(buildings: Vec<Building>, cells: Vec<[DVec2; 3]>, eps: f64) ->
         cells: Cells {
             triangles: cells,
             region: Polygon::default(),
+            open_area: 0.0,
+            dropped: vec![],
+            min_gap: 0.0,
         },
         settings: citypvs::Settings::new(citypvs::RawSettings {
             eps: Some(eps),
