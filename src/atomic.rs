@@ -203,11 +203,19 @@ fn remove_stale(dir: &Path, prefix: &str) {
 
 /// Create a new temporary file next to `target`.
 fn create_tmp(path: &Path, dir: &Path, prefix: &str) -> Result<(PathBuf, File)> {
-    use rand::Rng;
-    let mut rng = rand::rng();
+    use std::sync::atomic::{AtomicU32, Ordering};
+    static COUNTER: AtomicU32 = AtomicU32::new(0);
     let mut last = None;
     for _ in 0..16 {
-        let tag: u32 = rng.random();
+        // A tag no other file of this process has, mixed with the clock so
+        // a process with a recycled id does not meet its predecessor's.
+        let nanos = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.subsec_nanos());
+        let tag = COUNTER
+            .fetch_add(1, Ordering::Relaxed)
+            .wrapping_mul(0x9e37_79b9)
+            ^ nanos;
         let tmp = dir.join(format!("{prefix}{}-{tag:08x}", std::process::id()));
         let mut options = OpenOptions::new();
         options.write(true).create_new(true);

@@ -8,7 +8,7 @@ use std::time::Instant;
 use crate::Result;
 use crate::prepare::{Scene, StageTime};
 use crate::pvs::{BakeInfo, PvsData};
-use crate::settings::{RawSettings, Settings};
+use crate::settings::Settings;
 use crate::visibility::{SolveStats, VisibilityEngine};
 
 /// Statistics of one bake.
@@ -84,17 +84,7 @@ pub fn bake_info(scene: &Scene) -> BakeInfo {
 /// The settings a `.pvs` header records, validated again (a file is user
 /// data), with the region the user gives for it.
 pub fn settings_of(info: &BakeInfo, region: Option<crate::model::Polygon>) -> Result<Settings> {
-    Settings::new(RawSettings {
-        eps: Some(info.eps),
-        pixel: Some(info.pixel),
-        eye_height: Some(info.eye_height),
-        max_cell_edge: Some(info.max_cell_edge),
-        margin: Some(info.margin),
-        near_field: Some(info.near_field),
-        min_gap: Some(info.min_gap),
-        region,
-    })
-    .map_err(|e| crate::Error::format(format!("the file's header is not a valid bake: {e}")))
+    info.settings(region)
 }
 
 /// Solve the cells in `range` and hand each set to `sink` in cell order.

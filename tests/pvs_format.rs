@@ -14,7 +14,7 @@ fn info(frame: Frame) -> BakeInfo {
         pixel: 0.125,
         max_cell_edge: 20.0,
         margin: 30.0,
-        near_field: 0.0,
+        near_field: 48.0,
         min_gap: 0.0,
         frame,
         source_hash: std::array::from_fn(|i| (i * 7 + 3) as u8),

@@ -33,7 +33,7 @@ fn data() -> PvsData {
             pixel: 0.25,
             max_cell_edge: 120.0,
             margin: 10.0,
-            near_field: 0.0,
+            near_field: 48.0,
             min_gap: 0.0,
             frame: Frame::LonLat {
                 lon0: 26.94,

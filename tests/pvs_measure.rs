@@ -160,7 +160,7 @@ fn write_and_open_timing_on_a_large_file() {
             pixel: 0.125,
             max_cell_edge: 20.0,
             margin: 30.0,
-            near_field: 0.0,
+            near_field: 48.0,
             min_gap: 0.0,
             frame: Frame::LonLat {
                 lon0: 26.9,

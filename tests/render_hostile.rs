@@ -2,11 +2,11 @@
 //! large to make: an absurd `--radius`, and a `.pvs` whose header holds a
 //! tiny, zero or negative pixel size.
 
+mod common;
+
 use std::path::Path;
 use std::process::{Command, Output};
 use std::time::Instant;
-
-use citypvs::pvs::{PvsData, PvsReader, write_pvs};
 
 const CITY: &str = r#"{"type":"FeatureCollection","features":[
 {"type":"Feature","properties":{"id":"a","height":10},"geometry":{"type":"Polygon","coordinates":[[[0,0],[20,0],[20,20],[0,20],[0,0]]]}},
@@ -104,19 +104,13 @@ fn pvs_with_pixel(dir: &Path, pixel: f64) -> String {
         &["bake", "city.geojson", "--metric", "-q", "-o", "good.pvs"],
     );
     assert!(out.status.success(), "{}", stderr(&out));
-    let reader = PvsReader::open(&dir.join("good.pvs")).unwrap();
-    let mut info = reader.info().clone();
-    info.pixel = pixel;
-    let data = PvsData {
-        info,
-        object_ids: reader.object_ids().to_vec(),
-        cells: reader.cell_triangles().to_vec(),
-        visible: (0..reader.cell_count())
-            .map(|c| reader.visible(c).unwrap())
-            .collect(),
-    };
+    let good = std::fs::read(dir.join("good.pvs")).unwrap();
     let name = format!("pixel-{pixel}.pvs");
-    write_pvs(&dir.join(&name), &data).unwrap();
+    std::fs::write(
+        dir.join(&name),
+        common::with_header_number(good, common::HEADER_PIXEL, pixel),
+    )
+    .unwrap();
     name
 }
 

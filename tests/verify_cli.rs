@@ -62,7 +62,7 @@ fn pvs(city_path: &Path, visible: [&[&str]; 4], ids: &[&str]) -> PvsData {
             pixel: 0.35,
             max_cell_edge: 60.0,
             margin: 10.0,
-            near_field: 0.0,
+            near_field: 48.0,
             min_gap: 0.0,
             frame: city.frame.clone(),
             source_hash: city.source_hash,

@@ -55,38 +55,27 @@ impl BakeInfo {
     /// Check every header number: finite, positive or non-negative as its
     /// meaning needs, and the pixel small enough for eps (pixel * sqrt(2) / 2
     /// <= eps). The writer and the reader both call this.
+    /// The settings this header records, checked like any settings (a file
+    /// is user data), with the region the caller gives for it (the header
+    /// holds only the region's hash).
+    pub fn settings(&self, region: Option<crate::model::Polygon>) -> Result<crate::Settings> {
+        crate::Settings::new(crate::RawSettings {
+            eps: Some(self.eps),
+            pixel: Some(self.pixel),
+            eye_height: Some(self.eye_height),
+            max_cell_edge: Some(self.max_cell_edge),
+            margin: Some(self.margin),
+            near_field: Some(self.near_field),
+            min_gap: Some(self.min_gap),
+            region,
+        })
+        .map_err(|e| Error::format(format!("the file's header is not a valid bake: {e}")))
+    }
+
     pub fn validate(&self) -> Result<()> {
-        let positive = [
-            ("eps", self.eps),
-            ("eye_height", self.eye_height),
-            ("pixel", self.pixel),
-            ("max_cell_edge", self.max_cell_edge),
-        ];
-        for (name, v) in positive {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(Error::new(format!(
-                    "header field {name} is {v}, not a positive number of metres"
-                )));
-            }
-        }
-        let non_negative = [
-            ("margin", self.margin),
-            ("near_field", self.near_field),
-            ("min_gap", self.min_gap),
-        ];
-        for (name, v) in non_negative {
-            if !(v.is_finite() && v >= 0.0) {
-                return Err(Error::new(format!(
-                    "header field {name} is {v}, not a non-negative number of metres"
-                )));
-            }
-        }
-        if self.pixel * std::f64::consts::SQRT_2 / 2.0 > self.eps {
-            return Err(Error::new(format!(
-                "header pixel {} is too large for eps {} (pixel * sqrt(2) / 2 must not exceed eps)",
-                self.pixel, self.eps
-            )));
-        }
+        // The numbers go through the one settings check (docs/METHOD.md §4);
+        // the frame is checked here.
+        self.settings(None)?;
         let (x, y) = match &self.frame {
             Frame::LonLat { lon0, lat0 } => (*lon0, *lat0),
             Frame::Metric { origin, .. } => (origin.x, origin.y),

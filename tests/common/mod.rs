@@ -135,3 +135,22 @@ pub fn cell_at(c: DVec2, size: f64) -> [DVec2; 3] {
         c + DVec2::new(0.0, size),
     ]
 }
+
+/// The offsets of the header's numbers in a `.pvs` file (docs/FORMAT.md).
+pub const HEADER_EPS: usize = 24;
+pub const HEADER_EYE_HEIGHT: usize = 32;
+pub const HEADER_PIXEL: usize = 40;
+pub const HEADER_MAX_CELL_EDGE: usize = 48;
+pub const HEADER_MARGIN: usize = 56;
+
+/// A `.pvs` file's bytes with the f64 at `offset` of the header replaced
+/// and the checksum recomputed, so a header no writer would produce reaches
+/// the reader's checks (the writer refuses to write one).
+pub fn with_header_number(mut bytes: Vec<u8>, offset: usize, value: f64) -> Vec<u8> {
+    use sha2::{Digest, Sha256};
+    bytes[offset..offset + 8].copy_from_slice(&value.to_le_bytes());
+    let body = bytes.len() - 32;
+    let sum: [u8; 32] = Sha256::digest(&bytes[..body]).into();
+    bytes[body..].copy_from_slice(&sum);
+    bytes
+}
