@@ -54,11 +54,7 @@ fn exercise(bytes: Vec<u8>) {
     });
     for cell in (0..cells).step_by(cells.div_ceil(16).max(1)) {
         let t = reader.cell_triangle(cell);
-        for p in [
-            t[0],
-            (t[0] + t[1]) * 0.5,
-            (t[0] + t[1] + t[2]) / 3.0,
-        ] {
+        for p in [t[0], (t[0] + t[1]) * 0.5, (t[0] + t[1] + t[2]) / 3.0] {
             if let Some(c) = reader.cell_at(p) {
                 assert!(c < cells, "cell_at gave a cell past the end");
             }
@@ -97,7 +93,9 @@ fn fit_sections(body: &[u8]) -> Option<Vec<u8>> {
         return None;
     }
     let first5 = (0..5).try_fold(0u64, |s, k| s.checked_add(u64_at(body, 184 + 8 * k)))?;
-    let len_blocks = (body.len() as u64).checked_sub(HEADER as u64)?.checked_sub(first5)?;
+    let len_blocks = (body.len() as u64)
+        .checked_sub(HEADER as u64)?
+        .checked_sub(first5)?;
     let mut out = body.to_vec();
     out[224..232].copy_from_slice(&len_blocks.to_le_bytes());
     let index_end = HEADER as u64 + first5;
