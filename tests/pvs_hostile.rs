@@ -354,3 +354,28 @@ fn text_inspect_escapes_control_characters() {
     assert_eq!(e, "way/1\\u{1b}[31mred\\n");
     assert_eq!(citypvs::cli::inspect::escape_controls("plain/ä"), "plain/ä");
 }
+
+/// The input the version 1 fuzz run saved (a header whose object table
+/// offset lies past the end of the body; once an unsigned subtraction that
+/// wrapped), sealed with a right length and checksum: the version 2 reader
+/// refuses it as version 1 and the converter's version 1 parser gives an
+/// error, both without panicking.
+#[test]
+fn saved_version_1_fuzz_input_is_refused() {
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/fuzz/crashes/pvs/subtract-overflow-read-rs-248.body"
+    );
+    let mut b = std::fs::read(path).unwrap();
+    assert_eq!(&b[8..12], &1u32.to_le_bytes());
+    let len = (b.len() + 32) as u64;
+    b[16..24].copy_from_slice(&len.to_le_bytes());
+    let digest = Sha256::digest(&b);
+    b.extend_from_slice(&digest);
+    let err = PvsReader::from_bytes(b.clone()).err().unwrap();
+    assert!(err.message().contains("version 1 file: rebake"), "{err}");
+    let (res, peak) = peak_during(|| citypvs::pvs::v1::read_v1(&b));
+    let err = res.err().unwrap();
+    assert!(!err.message().is_empty());
+    assert!(peak <= cap(b.len()), "{peak}");
+}
