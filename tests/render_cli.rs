@@ -1,4 +1,4 @@
-//! The `render` command's flow after preparation (issue 6): a `.pvs` file
+//! The `render` command's flow after preparation: a `.pvs` file
 //! baked from a hand scene is opened and checked, cells are chosen by index
 //! or by point, and the layers come from the file.
 

@@ -1,4 +1,4 @@
-//! Pictures of hand-made scenes (issue 6): the colours at known places of
+//! Pictures of hand-made scenes: the colours at known places of
 //! the map follow the visible sets, the cull map and the PVS sizes.
 
 mod common;

@@ -96,8 +96,8 @@ fn kotka_passes_the_judge() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/kotka.geojson");
     let city = read_city(&path, &InputOptions::default()).expect("read Kotka");
     // CI bakes the 600 m square around the densest part of the extract (the
-    // whole extract has 42,000 cells; the closing note of the bake gives its
-    // full run). Buildings outside the square still occlude and are judged.
+    // whole extract has 42,000 cells; CITYPVS_VERIFY_ALL=1 judges all of it).
+    // Buildings outside the square still occlude and are judged.
     let centre = densest_point(&city);
     let half = if std::env::var("CITYPVS_VERIFY_ALL").is_ok_and(|v| v != "0") {
         1e6

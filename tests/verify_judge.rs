@@ -601,7 +601,7 @@ fn verdicts_repeat_for_a_seed_and_any_thread_count() {
 
 #[test]
 fn lower_viewpoints_see_no_more_than_the_eye() {
-    // Height monotonicity (METHOD.md 3) holds for the judge's answers.
+    // Height monotonicity (docs/METHOD.md §3) holds for the judge's answers.
     let mut rng = ChaCha8Rng::seed_from_u64(77);
     let city = random_scene(&mut rng);
     let judge = Judge::new(&city);

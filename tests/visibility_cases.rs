@@ -1,4 +1,4 @@
-//! Hand-checked visibility cases whose answers are known (issue: the bake).
+//! Hand-checked visibility cases whose answers are known.
 
 mod common;
 

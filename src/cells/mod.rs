@@ -1,5 +1,5 @@
 //! View cells: the constrained Delaunay triangulation (spade) of free space,
-//! refined so that no cell edge exceeds a bound (METHOD.md 2).
+//! refined so that no cell edge exceeds a bound (docs/METHOD.md §2).
 //!
 //! The types and [`triangulate`] below are the interface; `region` makes
 //! the region and free space, `mesh` triangulates and refines it (with

@@ -1,6 +1,6 @@
 //! Conservative erosion: an area minus closed strips along its edges and
 //! polygons circumscribed about the discs at its reflex corners, so the
-//! result lies inside the exact erosion (METHOD.md 4: tangent lines around
+//! result lies inside the exact erosion (docs/METHOD.md §4: tangent lines around
 //! the removed discs, never chords).
 
 use std::f64::consts::PI;

@@ -1,6 +1,6 @@
 //! Grouping occluding buildings whose footprints touch or overlap into
 //! blocks, and building each block's height field as nested level areas
-//! (METHOD.md 4: never erode wall-sharing buildings one by one).
+//! (docs/METHOD.md §4: never erode wall-sharing buildings one by one).
 
 use geo::Intersects;
 

@@ -1,5 +1,5 @@
 //! Occluder geometry: merging touching footprints into blocks whose levels
-//! form a height field (METHOD.md 4), and conservative erosion of every level
+//! form a height field (docs/METHOD.md §4), and conservative erosion of every level
 //! by eps. Owns everything between valid buildings and shrunk occluders.
 //!
 //! The types and functions below are the interface; the work is done in

@@ -1,6 +1,6 @@
 //! The independent judge: dense point sampling of each chosen cell and exact
 //! point-to-building visibility against the original, unshrunk buildings
-//! (METHOD.md 7). Shares no code with the bake's shadow path.
+//! (docs/METHOD.md §7). Shares no code with the bake's shadow path.
 //!
 //! Submodules: [`sampling`] (which cells, which viewpoints), [`sight`]
 //! (exact visibility from one point), [`edges`] (the judge's edge grid and

@@ -1,4 +1,4 @@
-//! The software cull map of one sample (METHOD.md 5): a window of the global
+//! The software cull map of one sample (docs/METHOD.md §5): a window of the global
 //! pixel grid holding U_V, the max over shrunk occluder edges of the shadow
 //! height at each pixel centre, and the conservative occludee test against
 //! it. Heights are stored as f32 rounded down, so rounding only lowers a

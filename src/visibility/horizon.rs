@@ -1,4 +1,4 @@
-//! The per-sample horizon (METHOD.md 6): for each azimuth bin, a lower bound
+//! The per-sample horizon (docs/METHOD.md §6): for each azimuth bin, a lower bound
 //! on the steepest sight-line slope (rise over run) blocked by the shrunk
 //! occluders, valid for EVERY direction in the bin. Anything whose own
 //! steepest slope is at or below the horizon over all its bins, and which

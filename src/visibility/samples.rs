@@ -1,4 +1,4 @@
-//! Sample points on the cells' top edges (METHOD.md 3 and 4): every distinct
+//! Sample points on the cells' top edges (docs/METHOD.md §3 and §4): every distinct
 //! cell vertex, and points along every distinct cell edge at a spacing of at
 //! most 2 * eps. Cells that share an edge or a vertex share its samples, so
 //! each is computed once.

@@ -1,5 +1,5 @@
 //! The per-sample visibility solver: for one sample V, find every object
-//! that the shrunk occluders do not hide from V (METHOD.md 5 and 6).
+//! that the shrunk occluders do not hide from V (docs/METHOD.md §5 and §6).
 //!
 //! Near V, a cull map (a window of the global pixel grid) decides objects
 //! pixel by pixel. Everything else is decided by a horizon that grows with
