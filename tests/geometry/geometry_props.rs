@@ -2,8 +2,7 @@
 //! (star-shaped) polygons with and without courtyards, rows of wall-sharing
 //! buildings of different depths and heights, overlapping annexes.
 
-#[path = "geometry_scenes/mod.rs"]
-mod scenes;
+use crate::scenes;
 
 use citypvs::geometry::{EROSION_SAFETY_MARGIN, erode, merge_blocks};
 use citypvs::model::{MultiPolygon, Polygon, multipolygon_area, point_in_multipolygon};

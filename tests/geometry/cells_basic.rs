@@ -1,11 +1,9 @@
 //! Hand-made checks of the view cells.
 
-mod common;
-
+use crate::common::{block, rect, ring_building};
 use citypvs::cells::{CellParams, triangulate};
 use citypvs::geometry::merge_blocks;
 use citypvs::model::{Polygon, point_in_multipolygon};
-use common::{block, rect, ring_building};
 use glam::DVec2;
 
 fn area(t: &[DVec2; 3]) -> f64 {

@@ -2,10 +2,9 @@
 //! baked from a hand scene is opened and checked, cells are chosen by index
 //! or by point, and the layers come from the file.
 
-mod common;
-
 use std::path::Path;
 
+use crate::common::*;
 use citypvs::bake::bake;
 use citypvs::cli::render::{RenderArgs, draw};
 use citypvs::cli::{Cli, Command};
@@ -14,7 +13,6 @@ use citypvs::pvs::{PvsReader, write_pvs};
 use citypvs::render::palette;
 use citypvs::visibility::VisibilityEngine;
 use clap::Parser;
-use common::*;
 use glam::DVec2;
 
 fn street(eps: f64) -> Scene {

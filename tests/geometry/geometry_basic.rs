@@ -1,13 +1,11 @@
 //! Hand-made checks of merging and erosion with known answers.
 
-mod common;
-
+use crate::common::{block, rect, ring_building};
 use citypvs::geometry::{EROSION_SAFETY_MARGIN, erode, merge_blocks, shrink_blocks};
 use citypvs::model::{
     Building, Polygon, distance_to_segment, multipolygon_area, point_in_multipolygon,
     polygon_edges, ring_signed_area2,
 };
-use common::{block, rect, ring_building};
 use glam::DVec2;
 
 fn boundary_distance(p: DVec2, mp: &[Polygon]) -> f64 {

@@ -3,8 +3,7 @@
 //! cell, no footprint point in any), edges respect the bound, triangles are
 //! counter-clockwise.
 
-#[path = "geometry_scenes/mod.rs"]
-mod scenes;
+use crate::scenes;
 
 use citypvs::cells::{CellParams, Cells, triangulate};
 use citypvs::geometry::merge_blocks;

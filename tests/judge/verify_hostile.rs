@@ -3,8 +3,6 @@
 //! are not the city's, and cells whose every viewpoint is inside a building
 //! all exit 2; a genuine bake (also with a region) still passes.
 
-mod common;
-
 use std::path::Path;
 use std::process::{Command, Output};
 
@@ -71,7 +69,7 @@ fn with_number(dir: &Path, from: &str, to: &str, offset: usize, value: f64) {
     let bytes = std::fs::read(dir.join(from)).unwrap();
     std::fs::write(
         dir.join(to),
-        common::with_header_number(bytes, offset, value),
+        crate::common::with_header_number(bytes, offset, value),
     )
     .unwrap();
 }
@@ -96,7 +94,7 @@ fn a_nan_eye_height_with_empty_sets_is_not_a_valid_bake() {
         dir.path(),
         "empty-sets.pvs",
         "nan.pvs",
-        common::HEADER_EYE_HEIGHT,
+        crate::common::HEADER_EYE_HEIGHT,
         f64::NAN,
     );
     let out = verify(dir.path(), "nan.pvs", &[]);
@@ -114,10 +112,14 @@ fn a_nan_eye_height_with_empty_sets_is_not_a_valid_bake() {
 fn other_impossible_headers_are_refused() {
     let dir = baked();
     let edits = [
-        ("eps", common::HEADER_EPS, 0.0),
-        ("pixel", common::HEADER_PIXEL, 1e9),
-        ("eye-height", common::HEADER_EYE_HEIGHT, -1.7),
-        ("max-cell-edge", common::HEADER_MAX_CELL_EDGE, f64::INFINITY),
+        ("eps", crate::common::HEADER_EPS, 0.0),
+        ("pixel", crate::common::HEADER_PIXEL, 1e9),
+        ("eye-height", crate::common::HEADER_EYE_HEIGHT, -1.7),
+        (
+            "max-cell-edge",
+            crate::common::HEADER_MAX_CELL_EDGE,
+            f64::INFINITY,
+        ),
     ];
     for (what, offset, value) in edits {
         with_number(dir.path(), "good.pvs", "bad.pvs", offset, value);

@@ -3,13 +3,11 @@
 //! footprint, occluders never change, and sight lines still pass through
 //! slits that no viewer fits in. Also the old-town style's cell quality.
 
-mod common;
-
+use crate::common::block;
 use citypvs::cells::{CellParams, triangulate};
 use citypvs::geometry::merge_blocks;
 use citypvs::model::{Building, Polygon, distance_to_segment, point_in_multipolygon};
 use citypvs::prepare::prepare;
-use common::block;
 use glam::DVec2;
 use proptest::prelude::*;
 

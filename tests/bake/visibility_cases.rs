@@ -1,9 +1,7 @@
 //! Hand-checked visibility cases whose answers are known.
 
-mod common;
-
+use crate::common::*;
 use citypvs::visibility::VisibilityEngine;
-use common::*;
 use glam::DVec2;
 
 fn pvs_ids(scene: &citypvs::prepare::Scene) -> Vec<String> {

@@ -2,11 +2,9 @@
 //! single viewpoints and from cells, a brute-force cross-check on random
 //! scenes, and whole-PVS verdicts (a broken PVS is caught, a superset passes).
 
-mod common;
-
+use crate::common::{block, ring_building};
 use citypvs::model::{Building, Polygon, point_in_multipolygon, polygon_edges};
 use citypvs::verify::{Judge, Scratch, VerifyOptions, View, verify};
-use common::{block, ring_building};
 use glam::{DVec2, DVec3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;

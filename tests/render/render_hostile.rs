@@ -2,8 +2,6 @@
 //! large to make: an absurd `--radius`, and a `.pvs` whose header holds a
 //! tiny, zero or negative pixel size.
 
-mod common;
-
 use std::path::Path;
 use std::process::{Command, Output};
 use std::time::Instant;
@@ -108,7 +106,7 @@ fn pvs_with_pixel(dir: &Path, pixel: f64) -> String {
     let name = format!("pixel-{pixel}.pvs");
     std::fs::write(
         dir.join(&name),
-        common::with_header_number(good, common::HEADER_PIXEL, pixel),
+        crate::common::with_header_number(good, crate::common::HEADER_PIXEL, pixel),
     )
     .unwrap();
     name

@@ -1,14 +1,12 @@
 //! Pictures of hand-made scenes: the colours at known places of
 //! the map follow the visible sets, the cull map and the PVS sizes.
 
-mod common;
-
+use crate::common::*;
 use citypvs::model::Rect;
 use citypvs::prepare::Scene;
 use citypvs::render::palette::{self, Rgb};
 use citypvs::render::{Focus, Picture, Rendered, cell_containing, render, view_around};
 use citypvs::visibility::VisibilityEngine;
-use common::*;
 use glam::DVec2;
 
 const WALL: usize = 0;

@@ -1,0 +1,13 @@
+//! The bake end to end: visibility, settings, the command, output files.
+//!
+//! One test binary for the group (each file below is a module), so the
+//! suite links a few binaries instead of one per file.
+
+mod bake_cli;
+#[allow(dead_code)]
+#[path = "../common/mod.rs"]
+mod common;
+mod output_files;
+mod settings_cli;
+mod visibility_cases;
+mod visibility_runs;

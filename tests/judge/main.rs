@@ -1,0 +1,13 @@
+//! The judge: verify.
+//!
+//! One test binary for the group (each file below is a module), so the
+//! suite links a few binaries instead of one per file.
+
+#[allow(dead_code)]
+#[path = "../common/mod.rs"]
+mod common;
+mod verify_bake;
+mod verify_cli;
+mod verify_hostile;
+mod verify_judge;
+mod verify_speed;

@@ -1,0 +1,9 @@
+//! Shards, merge, resume, diff and the batch recipes.
+//!
+//! One test binary for the group (each file below is a module), so the
+//! suite links a few binaries instead of one per file.
+
+mod scale_diff;
+mod scale_recipes;
+mod scale_resume;
+mod scale_shards;
