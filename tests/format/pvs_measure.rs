@@ -1,6 +1,6 @@
 //! Measures the visible-set codings on synthetic but city-like data: 10,000
 //! cells over 1,000 objects, each cell seeing a spatially coherent 3-15% of
-//! the objects. Run with `cargo test --test pvs_measure -- --nocapture` to see
+//! the objects. Run with `cargo test --test format pvs_measure:: -- --nocapture` to see
 //! the bytes per cell of each scheme (the figures quoted in docs/FORMAT.md).
 
 use citypvs::pvs::codec::{SchemeSizes, measure};
@@ -125,7 +125,7 @@ fn coding_sizes_on_a_city_like_pvs() {
     }
 }
 
-/// Timing on a larger file: `cargo test --test pvs_measure -- --ignored --nocapture`.
+/// Timing on a larger file: `cargo test --test format pvs_measure:: -- --ignored --nocapture`.
 #[test]
 #[ignore]
 fn write_and_open_timing_on_a_large_file() {

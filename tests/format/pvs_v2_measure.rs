@@ -3,7 +3,7 @@
 //! numberings and time the reader. Ignored by default (it needs baked files):
 //!
 //! CITYPVS_V1=city.v1.pvs [CITYPVS_CITY=city.geojson] [CITYPVS_OUT=city.pvs]
-//! cargo test --release --test pvs_v2_measure -- --ignored --nocapture
+//! cargo test --release --test format pvs_v2_measure:: -- --ignored --nocapture
 
 use std::time::Instant;
 

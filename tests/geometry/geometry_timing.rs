@@ -1,6 +1,6 @@
 //! Timings of merge, erosion and triangulation on generated cities. Ignored
 //! by default; run with
-//! `cargo test --release --test geometry_timing -- --ignored --nocapture`.
+//! `cargo test --release --test geometry geometry_timing:: -- --ignored --nocapture`.
 
 use std::time::Instant;
 

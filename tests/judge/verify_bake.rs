@@ -3,7 +3,7 @@
 //! checked by dense point sampling; any violation fails the test.
 //!
 //! CI checks a sample of cells. To judge every cell, run
-//! `CITYPVS_VERIFY_ALL=1 cargo test --release --test verify_bake -- --nocapture`.
+//! `CITYPVS_VERIFY_ALL=1 cargo test --release --test judge verify_bake:: -- --nocapture`.
 
 use std::path::Path;
 

@@ -1,6 +1,6 @@
 //! Speed of the judge on a generated city (ignored by default; prints
 //! figures, asserts nothing about time):
-//! `cargo test --release --test verify_speed -- --ignored --nocapture`.
+//! `cargo test --release --test judge verify_speed:: -- --ignored --nocapture`.
 
 use citypvs::generate::{GenerateParams, generate_buildings};
 use citypvs::model::{Building, Rect, point_in_multipolygon};
