@@ -26,8 +26,6 @@ pub enum ErrorKind {
     Io,
     /// A command-line request that cannot be served (no such cell, ...).
     Usage,
-    /// Not yet given a kind.
-    Other,
 }
 
 /// An error with its kind and a complete, user-facing message.
@@ -47,11 +45,6 @@ impl Error {
             kind,
             message: message.into(),
         }
-    }
-
-    /// An error not yet given a kind.
-    pub fn new(message: impl Into<String>) -> Self {
-        Error::of(ErrorKind::Other, message)
     }
 
     /// An invalid input file.

@@ -46,7 +46,7 @@ pub fn triangulate_free_space(free: &MultiPolygon, max_edge: f64) -> Result<Vec<
         .sum();
     let expected_vertices = area / (0.1 * max_edge * max_edge) + perimeter / max_edge;
     if expected_vertices > MAX_VERTICES as f64 {
-        return Err(Error::new(format!(
+        return Err(Error::scene(format!(
             "cells: a free area of {area:.0} m2 and {perimeter:.0} m of outlines with cell edges of at most {max_edge} m need \
              about {expected_vertices:.0} vertices, more than the limit of {MAX_VERTICES}; \
              give a larger --max-cell-edge or a smaller region"
@@ -92,7 +92,7 @@ fn spread_bits(v: u64) -> u64 {
 }
 
 fn insertion_error(e: InsertionError) -> Error {
-    Error::new(format!("cells: the triangulation rejected a vertex: {e:?}"))
+    Error::scene(format!("cells: the triangulation rejected a vertex: {e:?}"))
 }
 
 /// The CDT with every ring of `free` as constraint edges, each edge

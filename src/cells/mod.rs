@@ -69,13 +69,13 @@ pub struct Cells {
 /// sense, or nothing of the region is free.
 pub fn triangulate(blocks: &[Block], params: &CellParams) -> Result<Cells> {
     if !(params.max_edge > 0.0 && params.max_edge.is_finite()) {
-        return Err(crate::Error::new(format!(
+        return Err(crate::Error::scene(format!(
             "cells: the maximum cell edge must be a positive number of metres, got {}",
             params.max_edge
         )));
     }
     if !(params.min_gap >= 0.0 && params.min_gap.is_finite()) {
-        return Err(crate::Error::new(format!(
+        return Err(crate::Error::scene(format!(
             "cells: the minimum gap must be zero or a positive number of metres, got {}",
             params.min_gap
         )));
@@ -90,7 +90,7 @@ pub fn triangulate(blocks: &[Block], params: &CellParams) -> Result<Cells> {
         Vec::new()
     };
     if free.is_empty() {
-        return Err(crate::Error::new(
+        return Err(crate::Error::scene(
             "cells: no free space is left in the region once the footprints are removed",
         ));
     }

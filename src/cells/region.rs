@@ -26,12 +26,14 @@ fn user_region(given: &Polygon) -> Result<Polygon> {
         .flatten()
         .all(|p| p.is_finite());
     if !all_finite {
-        return Err(Error::new("cells: the region has a non-finite coordinate"));
+        return Err(Error::scene(
+            "cells: the region has a non-finite coordinate",
+        ));
     }
     let cleaned = multipolygon_from_geo(&multipolygon_to_geo(std::slice::from_ref(given)), 0.0);
     match <[Polygon; 1]>::try_from(cleaned) {
         Ok([polygon]) => Ok(polygon),
-        Err(_) => Err(Error::new(
+        Err(_) => Err(Error::scene(
             "cells: the region's exterior must have at least three distinct vertices and enclose an area",
         )),
     }
@@ -40,7 +42,7 @@ fn user_region(given: &Polygon) -> Result<Polygon> {
 /// The bounding box of all ground footprints grown by `margin`.
 fn grown_box(blocks: &[Block], margin: f64) -> Result<Polygon> {
     if !(margin >= 0.0 && margin.is_finite()) {
-        return Err(Error::new(format!(
+        return Err(Error::scene(format!(
             "cells: the margin must be a finite number of metres >= 0, got {margin}"
         )));
     }
@@ -50,7 +52,7 @@ fn grown_box(blocks: &[Block], margin: f64) -> Result<Polygon> {
         .map(|level| multipolygon_bounds(&level.area))
         .fold(Rect::EMPTY, |acc, r| acc.union(&r));
     if bounds.is_empty() {
-        return Err(Error::new(
+        return Err(Error::scene(
             "cells: there are no occluding buildings to take a region from; give a region",
         ));
     }
@@ -62,7 +64,7 @@ fn grown_box(blocks: &[Block], margin: f64) -> Result<Polygon> {
         glam::DVec2::new(r.min.x, r.max.y),
     ];
     if ring_signed_area2(&exterior) <= 0.0 {
-        return Err(Error::new(
+        return Err(Error::scene(
             "cells: the footprints' bounding box has no area; give a margin > 0",
         ));
     }

@@ -137,7 +137,7 @@ fn print_comparison(base: &Saved, row: &Row) {
 pub fn run(args: &BenchArgs) -> Result<i32> {
     let max = super::generate::MAX_BUILDINGS;
     if let Some(&n) = args.buildings.iter().find(|&&n| n == 0 || n > max) {
-        return Err(crate::Error::new(format!(
+        return Err(crate::Error::usage(format!(
             "--buildings must be between 1 and {max}, got {n}"
         )));
     }

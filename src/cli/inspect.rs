@@ -178,7 +178,7 @@ pub fn run(args: &InspectArgs) -> Result<i32> {
     if let Some(c) = args.cell
         && c >= reader.cell_count()
     {
-        return Err(Error::new(format!(
+        return Err(Error::usage(format!(
             "{name}: --cell {c} does not exist (the file has {} cells)",
             reader.cell_count()
         )));
@@ -188,7 +188,7 @@ pub fn run(args: &InspectArgs) -> Result<i32> {
     let mut out = std::io::BufWriter::new(std::io::stdout().lock());
     let write = |out: &mut dyn std::io::Write, text: &str| {
         out.write_all(text.as_bytes())
-            .map_err(|e| Error::new(format!("cannot write the output: {e}")))
+            .map_err(|e| Error::io(format!("cannot write the output: {e}")))
     };
     let json = |v: &dyn erased::Json| v.to_json();
     if args.json {
@@ -226,7 +226,7 @@ pub fn run(args: &InspectArgs) -> Result<i32> {
         }
     }
     std::io::Write::flush(&mut out)
-        .map_err(|e| Error::new(format!("cannot write the output: {e}")))?;
+        .map_err(|e| Error::io(format!("cannot write the output: {e}")))?;
     Ok(0)
 }
 
@@ -321,7 +321,7 @@ fn print_text(
         .collect();
     let _ = writeln!(text, "codings:      {}", codings.join(", "));
     out.write_all(text.as_bytes())
-        .map_err(|e| Error::new(format!("cannot write the output: {e}")))
+        .map_err(|e| Error::io(format!("cannot write the output: {e}")))
 }
 
 fn print_cell(out: &mut dyn std::io::Write, c: &CellJson) -> Result<()> {
@@ -341,5 +341,5 @@ fn print_cell(out: &mut dyn std::io::Write, c: &CellJson) -> Result<()> {
         ids.join(" ")
     );
     out.write_all(text.as_bytes())
-        .map_err(|e| Error::new(format!("cannot write the output: {e}")))
+        .map_err(|e| Error::io(format!("cannot write the output: {e}")))
 }

@@ -79,7 +79,7 @@ fn quoted(feature: &str) -> String {
 
 /// An error about one feature of file `name`.
 pub fn feature_error(name: &str, id: Option<&str>, index: usize, what: &str) -> Error {
-    Error::new(format!("{name}: {}: {what}", feature_label(id, index)))
+    Error::input(format!("{name}: {}: {what}", feature_label(id, index)))
 }
 
 impl RawBuilding {
@@ -105,7 +105,7 @@ fn check_unique_ids(buildings: &[RawBuilding], name: &str) -> Result<()> {
     let mut seen: BTreeMap<&str, &RawBuilding> = BTreeMap::new();
     for b in buildings {
         if let Some(first) = seen.insert(&b.id, b) {
-            return Err(Error::new(format!(
+            return Err(Error::input(format!(
                 "{name}: duplicate id \"{}\": {} and {} (ids must be unique)",
                 b.id,
                 feature_label(first.label_id(), first.index),
@@ -270,7 +270,7 @@ pub fn assemble(parsed: Parsed, name: &str, bytes: &[u8], options: &InputOptions
             ),
             None => String::new(),
         };
-        return Err(Error::new(format!(
+        return Err(Error::input(format!(
             "{name}: no buildings found ({} features read, {} skipped){why}",
             parsed.features_read,
             parsed.skipped.len()
@@ -325,7 +325,7 @@ pub fn assemble(parsed: Parsed, name: &str, bytes: &[u8], options: &InputOptions
         && let Some(w) = report.skipped.first().or(report.repaired.first())
     {
         let more = report.skipped.len() + report.repaired.len() - 1;
-        return Err(Error::new(format!(
+        return Err(Error::input(format!(
             "{name}: feature {}: {} (--strict turns this warning into an error; {more} more)",
             quoted(&w.feature),
             w.message
@@ -333,7 +333,7 @@ pub fn assemble(parsed: Parsed, name: &str, bytes: &[u8], options: &InputOptions
     }
 
     if buildings.is_empty() {
-        return Err(Error::new(format!(
+        return Err(Error::input(format!(
             "{name}: no usable buildings: all {} were skipped (first: {}: {})",
             report.skipped.len(),
             report.skipped[0].feature,

@@ -34,7 +34,7 @@ const VERSIONS: [&str; 3] = ["1.0", "1.1", "2.0"];
 /// The file's version, one of [`VERSIONS`], from `"1.1"` or `"1.1.2"`.
 fn version(root: &Map<String, Value>, name: &str) -> Result<&'static str> {
     let unsupported = |shown: String| {
-        Error::new(format!(
+        Error::input(format!(
             "{name}: CityJSON version {shown} is not supported (1.0, 1.1 and 2.0 are, written as a string such as \"2.0\")"
         ))
     };
@@ -42,7 +42,7 @@ fn version(root: &Map<String, Value>, name: &str) -> Result<&'static str> {
         None => return Err(unsupported("(none: the file has no \"version\")".into())),
         Some(Value::String(s)) => s.as_str(),
         Some(Value::Number(n)) => {
-            return Err(Error::new(format!(
+            return Err(Error::input(format!(
                 "{name}: CityJSON version is the number {n}; it must be a string (\"version\": \"{n}\")"
             )));
         }
@@ -70,14 +70,14 @@ fn vertices(root: &Map<String, Value>, name: &str, version: &str) -> Result<Vec<
                     .and_then(Value::as_array)
                     .filter(|a| a.len() == 3);
                 let v = v.ok_or_else(|| {
-                    Error::new(format!(
+                    Error::input(format!(
                         "{name}: transform.{key} is not an array of 3 numbers"
                     ))
                 })?;
                 let mut out = [0.0; 3];
                 for (o, x) in out.iter_mut().zip(v) {
                     *o = x.as_f64().ok_or_else(|| {
-                        Error::new(format!("{name}: transform.{key} holds a non-number"))
+                        Error::input(format!("{name}: transform.{key} holds a non-number"))
                     })?;
                 }
                 Ok(out)
@@ -86,7 +86,7 @@ fn vertices(root: &Map<String, Value>, name: &str, version: &str) -> Result<Vec<
         }
         None if version == "1.0" => ([1.0; 3], [0.0; 3]),
         None => {
-            return Err(Error::new(format!(
+            return Err(Error::input(format!(
                 "{name}: CityJSON {version} file has no \"transform\" (it is required: vertices are integers scaled by transform.scale)"
             )));
         }
@@ -94,7 +94,7 @@ fn vertices(root: &Map<String, Value>, name: &str, version: &str) -> Result<Vec<
     let list = root
         .get("vertices")
         .and_then(Value::as_array)
-        .ok_or_else(|| Error::new(format!("{name}: CityJSON has no \"vertices\" array")))?;
+        .ok_or_else(|| Error::input(format!("{name}: CityJSON has no \"vertices\" array")))?;
     list.iter()
         .enumerate()
         .map(|(i, v)| {
@@ -103,7 +103,7 @@ fn vertices(root: &Map<String, Value>, name: &str, version: &str) -> Result<Vec<
                 .filter(|a| a.len() == 3)
                 .and_then(|a| Some([a[0].as_f64()?, a[1].as_f64()?, a[2].as_f64()?]))
                 .ok_or_else(|| {
-                    Error::new(format!("{name}: vertex {i} is not an array of 3 numbers"))
+                    Error::input(format!("{name}: vertex {i} is not an array of 3 numbers"))
                 })?;
             Ok([
                 xyz[0] * scale[0] + translate[0],
@@ -319,13 +319,13 @@ impl<'a> FamilyRoots<'a> {
 pub fn parse(root: &Value, name: &str, _options: &InputOptions) -> Result<Parsed> {
     let root = root
         .as_object()
-        .ok_or_else(|| Error::new(format!("{name}: CityJSON must be a JSON object")))?;
+        .ok_or_else(|| Error::input(format!("{name}: CityJSON must be a JSON object")))?;
     let version = version(root, name)?;
     let verts = vertices(root, name, version)?;
     let objects = root
         .get("CityObjects")
         .and_then(Value::as_object)
-        .ok_or_else(|| Error::new(format!("{name}: CityJSON has no \"CityObjects\" object")))?;
+        .ok_or_else(|| Error::input(format!("{name}: CityJSON has no \"CityObjects\" object")))?;
     let crs = root
         .get("metadata")
         .and_then(|m| m.get("referenceSystem"))

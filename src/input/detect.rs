@@ -42,7 +42,7 @@ pub fn format(bytes: &[u8], name: &str, forced: Option<Format>) -> Result<Format
         Content::Pbf => Ok(Format::OsmPbf),
         Content::Json => Ok(json_format(bytes, name)?.unwrap_or(Format::Geojson)),
         Content::Unknown => from_extension(name).ok_or_else(|| {
-            Error::new(format!(
+            Error::input(format!(
                 "{name}: not a GeoJSON, CityJSON or OSM PBF file (the content is not JSON and has no PBF header; use --format to force a format)"
             ))
         }),
@@ -75,7 +75,7 @@ struct TypeOnly {
 pub fn json_format(bytes: &[u8], name: &str) -> Result<Option<Format>> {
     let text = bytes.strip_prefix(b"\xef\xbb\xbf").unwrap_or(bytes);
     if text.iter().find(|b| !b.is_ascii_whitespace()) != Some(&b'{') {
-        return Err(Error::new(format!(
+        return Err(Error::input(format!(
             "{name}: expected a JSON object at the top level"
         )));
     }
@@ -103,9 +103,9 @@ pub fn json_error(e: serde_json::Error, bytes: &[u8], name: &str, what: &str) ->
         } else {
             ""
         };
-        Error::new(format!("{name}: not valid JSON: {e}{hint}"))
+        Error::input(format!("{name}: not valid JSON: {e}{hint}"))
     } else {
-        Error::new(format!("{name}: not valid {what}: {e}"))
+        Error::input(format!("{name}: not valid {what}: {e}"))
     }
 }
 /// True when the text at (line, column), both 1-based, is a NaN or Infinity token.

@@ -260,12 +260,12 @@ fn id_text(value: &Value) -> Option<String> {
 pub fn parse(doc: &Document, name: &str, options: &InputOptions) -> Result<Parsed> {
     let kind = doc.kind.as_deref().unwrap_or("(none)");
     if kind != "FeatureCollection" {
-        return Err(Error::new(format!(
+        return Err(Error::input(format!(
             "{name}: expected a GeoJSON FeatureCollection, found type \"{kind}\""
         )));
     }
     let features = doc.features.as_ref().ok_or_else(|| {
-        Error::new(format!(
+        Error::input(format!(
             "{name}: the FeatureCollection has no \"features\" array"
         ))
     })?;
@@ -341,7 +341,7 @@ fn geometry_parts(g: Option<&Geometry>) -> (&str, Option<&Coords>) {
 /// The single polygon of a region file: a Polygon geometry, a Feature, or a
 /// FeatureCollection with one polygon feature. Rings open, in file coordinates.
 pub fn parse_region(doc: &Document, name: &str) -> Result<RawPolygon> {
-    let fail = |what: &str| Error::new(format!("{name}: region: {what}"));
+    let fail = |what: &str| Error::input(format!("{name}: region: {what}"));
     let (kind, coords) = match doc.kind.as_deref() {
         Some("FeatureCollection") => {
             let features = doc

@@ -98,19 +98,19 @@ pub struct City {
 /// Read a city file. Errors name the file, the feature and what is wrong.
 pub fn read_city(path: &Path, options: &InputOptions) -> Result<City> {
     let bytes = std::fs::read(path)
-        .map_err(|e| crate::Error::new(format!("{}: cannot read: {e}", path.display())))?;
+        .map_err(|e| crate::Error::io(format!("{}: cannot read: {e}", path.display())))?;
     read_city_bytes(&bytes, &path.display().to_string(), options)
 }
 
 /// Read a city from bytes; `name` is used in messages (usually the path).
 pub fn read_city_bytes(bytes: &[u8], name: &str, options: &InputOptions) -> Result<City> {
     if let Err(why) = height::check_height(options.default_height) {
-        return Err(crate::Error::new(format!(
+        return Err(crate::Error::input(format!(
             "{name}: --default-height: {why}"
         )));
     }
     if bytes.iter().all(|b| b.is_ascii_whitespace()) {
-        return Err(crate::Error::new(format!("{name}: the file is empty")));
+        return Err(crate::Error::input(format!("{name}: the file is empty")));
     }
     let parsed = match detect::format(bytes, name, options.format)? {
         Format::OsmPbf => osm::parse(bytes, name, options)?,
@@ -125,14 +125,14 @@ pub fn read_city_bytes(bytes: &[u8], name: &str, options: &InputOptions) -> Resu
 pub fn read_region(path: &Path, frame: &Frame) -> Result<crate::model::Polygon> {
     let name = path.display().to_string();
     let bytes =
-        std::fs::read(path).map_err(|e| crate::Error::new(format!("{name}: cannot read: {e}")))?;
+        std::fs::read(path).map_err(|e| crate::Error::io(format!("{name}: cannot read: {e}")))?;
     let rings = geojson::parse_region(&geojson::decode(&bytes, &name)?, &name)?;
     if rings
         .iter()
         .flatten()
         .any(|p| !(p[0].is_finite() && p[1].is_finite()))
     {
-        return Err(crate::Error::new(format!(
+        return Err(crate::Error::input(format!(
             "{name}: region: a coordinate is not finite"
         )));
     }
@@ -142,7 +142,7 @@ pub fn read_region(path: &Path, frame: &Frame) -> Result<crate::model::Polygon> 
             .flatten()
             .find(|p| p[0].abs() > 180.0 || p[1].abs() > 90.0)
     {
-        return Err(crate::Error::new(format!(
+        return Err(crate::Error::input(format!(
             "{name}: region: coordinate ({}, {}) is not lon/lat, but the city is in lon/lat (the region must be in the city's coordinates)",
             p[0], p[1]
         )));
@@ -160,7 +160,7 @@ pub fn read_region(path: &Path, frame: &Frame) -> Result<crate::model::Polygon> 
         .zip(local.iter().flatten())
         .find(|(_, q)| !(q.x.abs() <= reach && q.y.abs() <= reach))
     {
-        return Err(crate::Error::new(format!(
+        return Err(crate::Error::input(format!(
             "{name}: region: coordinate ({}, {}) is {:.0} km from the city's centre; a region may reach at most {:.0} km from it",
             p[0],
             p[1],
@@ -170,7 +170,7 @@ pub fn read_region(path: &Path, frame: &Frame) -> Result<crate::model::Polygon> 
     }
     let mut repaired = repair::repair_footprint(&vec![local], false);
     if repaired.footprint.len() != 1 {
-        return Err(crate::Error::new(format!(
+        return Err(crate::Error::input(format!(
             "{name}: region: the polygon is not usable ({} pieces after repair{})",
             repaired.footprint.len(),
             if repaired.notes.is_empty() {

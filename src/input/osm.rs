@@ -63,7 +63,7 @@ fn each_element(bytes: &[u8], name: &str, f: impl FnMut(Element<'_>)) -> Result<
     ElementReader::new(Cursor::new(bytes))
         .for_each(f)
         .map_err(|e| {
-            Error::new(format!(
+            Error::input(format!(
                 "{name}: the OSM PBF file is truncated or corrupt ({e})"
             ))
         })
@@ -203,7 +203,7 @@ fn relation_polygons(
 /// Parse an OSM PBF file into buildings.
 pub fn parse(bytes: &[u8], name: &str, options: &InputOptions) -> Result<Parsed> {
     if options.metric {
-        return Err(Error::new(format!(
+        return Err(Error::input(format!(
             "{name}: --metric does not apply to OSM PBF files (they are always lon/lat)"
         )));
     }

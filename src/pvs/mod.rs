@@ -81,12 +81,12 @@ impl BakeInfo {
             Frame::Metric { origin, .. } => (origin.x, origin.y),
         };
         if !(x.is_finite() && y.is_finite()) {
-            return Err(Error::new("header frame origin is not finite"));
+            return Err(Error::format("header frame origin is not finite"));
         }
         if let Frame::LonLat { lon0, lat0 } = &self.frame
             && !(lon0.abs() <= 180.0 && lat0.abs() <= 90.0)
         {
-            return Err(Error::new(format!(
+            return Err(Error::format(format!(
                 "header frame origin lon {lon0}, lat {lat0} is not a longitude/latitude"
             )));
         }

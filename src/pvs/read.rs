@@ -52,7 +52,7 @@ impl<'a> Cursor<'a> {
     }
     fn take(&mut self, n: usize, what: &str) -> Result<&'a [u8]> {
         if n > self.left() {
-            return Err(Error::new(format!(
+            return Err(Error::format(format!(
                 "{what} runs past the end of the {} section",
                 self.section
             )));
@@ -72,22 +72,22 @@ impl<'a> Cursor<'a> {
     }
     fn varint(&mut self, what: &str) -> Result<u64> {
         read_varint(self.bytes, &mut self.pos)
-            .map_err(|e| Error::new(format!("{what} in the {} section: {e}", self.section)))
+            .map_err(|e| Error::format(format!("{what} in the {} section: {e}", self.section)))
     }
     fn string(&mut self, what: &str) -> Result<&'a str> {
         let len = self.varint(what)?;
         if len > self.left() as u64 {
-            return Err(Error::new(format!(
+            return Err(Error::format(format!(
                 "{what} of {len} bytes runs past the end of the {} section",
                 self.section
             )));
         }
         let raw = self.take(len as usize, what)?;
-        std::str::from_utf8(raw).map_err(|_| Error::new(format!("{what} is not valid UTF-8")))
+        std::str::from_utf8(raw).map_err(|_| Error::format(format!("{what} is not valid UTF-8")))
     }
     fn done(&self) -> Result<()> {
         if self.left() != 0 {
-            return Err(Error::new(format!(
+            return Err(Error::format(format!(
                 "the {} section has {} bytes left over",
                 self.section,
                 self.left()
@@ -101,47 +101,47 @@ impl PvsReader {
     /// Open and validate the header and tables.
     pub fn open(path: &Path) -> Result<PvsReader> {
         let bytes = std::fs::read(path)
-            .map_err(|e| Error::new(format!("{}: cannot read: {e}", path.display())))?;
+            .map_err(|e| Error::io(format!("{}: cannot read: {e}", path.display())))?;
         PvsReader::from_bytes(bytes).map_err(|e| e.context(path.display()))
     }
 
     /// Validate and index a whole file held in memory.
     pub fn from_bytes(bytes: Vec<u8>) -> Result<PvsReader> {
         if bytes.len() < MAGIC.len() || bytes[..MAGIC.len()] != MAGIC {
-            return Err(Error::new("not a citypvs .pvs file (bad magic bytes)"));
+            return Err(Error::format("not a citypvs .pvs file (bad magic bytes)"));
         }
         let mut h = Cursor::new(&bytes, "header");
         h.take(MAGIC.len(), "magic")?;
         let version = h.u32("version")?;
         if version == 1 {
-            return Err(Error::new(
+            return Err(Error::format(
                 "version 1 file: rebake with this citypvs (it reads .pvs version 2 only)",
             ));
         }
         if version != FORMAT_VERSION {
-            return Err(Error::new(format!(
+            return Err(Error::format(format!(
                 ".pvs format version {version} is not supported (this citypvs reads version {FORMAT_VERSION})"
             )));
         }
         let flags = h.u32("flags")?;
         let file_bytes = h.u64("file length")?;
         if file_bytes != bytes.len() as u64 {
-            return Err(Error::new(format!(
+            return Err(Error::format(format!(
                 "the file is {} bytes but its header says {file_bytes}: it is truncated or has extra bytes",
                 bytes.len()
             )));
         }
         if bytes.len() < HEADER_BYTES + 32 {
-            return Err(Error::new("file too short for a .pvs header"));
+            return Err(Error::format("file too short for a .pvs header"));
         }
         let body = bytes.len() - 32;
         if Sha256::digest(&bytes[..body]).as_slice() != &bytes[body..] {
-            return Err(Error::new(
+            return Err(Error::format(
                 "checksum mismatch: the file is corrupted (SHA-256 of its contents does not match its last 32 bytes)",
             ));
         }
         if flags != 0 {
-            return Err(Error::new(format!(
+            return Err(Error::format(format!(
                 "unknown flags {flags:#x} in the header"
             )));
         }
@@ -214,7 +214,7 @@ impl PvsReader {
     }
     fn check_cell(&self, cell: usize) -> Result<()> {
         if cell >= self.cell_count() {
-            return Err(Error::new(format!(
+            return Err(Error::format(format!(
                 "cell {cell} does not exist (the file has {} cells)",
                 self.cell_count()
             )));
@@ -266,12 +266,12 @@ impl PvsReader {
             let cell = first + k;
             let mode = state
                 .decode_next(bytes, &mut pos, n, &mut list, &mut set)
-                .map_err(|e| Error::new(format!("visible set of cell {cell}: {e}")))?;
+                .map_err(|e| Error::format(format!("visible set of cell {cell}: {e}")))?;
             f(cell, &set, mode)?;
         }
         let whole = first + last + 1 == self.cell_count() || last + 1 == self.block_cells;
         if whole && pos != bytes.len() {
-            return Err(Error::new(format!(
+            return Err(Error::format(format!(
                 "block {b} has {} bytes after its last cell",
                 bytes.len() - pos
             )));
@@ -370,12 +370,12 @@ fn parse(body: &[u8]) -> Result<Parsed> {
     }
     h.done()?;
     if !matches!((kind, has_crs), (0, 0) | (1, 0 | 1)) {
-        return Err(Error::new(format!(
+        return Err(Error::format(format!(
             "unknown frame kind {kind} with CRS flag {has_crs}"
         )));
     }
     if !(1..=MAX_BLOCK_CELLS).contains(&block_cells) {
-        return Err(Error::new(format!(
+        return Err(Error::format(format!(
             "header says {block_cells} cells per block (1 to {MAX_BLOCK_CELLS} allowed)"
         )));
     }
@@ -385,7 +385,7 @@ fn parse(body: &[u8]) -> Result<Parsed> {
     for (k, len) in lengths.iter().enumerate() {
         let end = at.checked_add(*len).filter(|&e| e <= body.len() as u64);
         let Some(end) = end else {
-            return Err(Error::new(format!(
+            return Err(Error::format(format!(
                 "the {} section of {len} bytes at byte {at} runs past the checksum (byte {})",
                 SECTION_NAMES[k],
                 body.len()
@@ -395,7 +395,7 @@ fn parse(body: &[u8]) -> Result<Parsed> {
         at = end;
     }
     if at != body.len() as u64 {
-        return Err(Error::new(format!(
+        return Err(Error::format(format!(
             "the sections end at byte {at}, but the checksum starts at byte {}",
             body.len()
         )));
@@ -438,7 +438,7 @@ fn parse(body: &[u8]) -> Result<Parsed> {
     let n = object_count as usize;
     let mut o = Cursor::new(sections[1], "objects");
     if n > o.left() / 2 {
-        return Err(Error::new(format!(
+        return Err(Error::format(format!(
             "header claims {n} objects, more than the objects section of {} bytes can hold",
             o.left()
         )));
@@ -452,7 +452,7 @@ fn parse(body: &[u8]) -> Result<Parsed> {
     for r in 0..n {
         let i = o.varint("spatial numbering")?;
         if i >= n as u64 || seen[i as usize] {
-            return Err(Error::new(format!(
+            return Err(Error::format(format!(
                 "the spatial numbering is not a permutation of the objects (rank {r} names object {i})"
             )));
         }
@@ -464,7 +464,7 @@ fn parse(body: &[u8]) -> Result<Parsed> {
     // Vertices: exactly 16 bytes each.
     let mut v = Cursor::new(sections[2], "vertices");
     if lengths[2] != 16 * u64::from(vertex_count) {
-        return Err(Error::new(format!(
+        return Err(Error::format(format!(
             "the vertices section is {} bytes, but {vertex_count} vertices take {}",
             lengths[2],
             16 * u64::from(vertex_count)
@@ -474,7 +474,7 @@ fn parse(body: &[u8]) -> Result<Parsed> {
     for k in 0..vertex_count {
         let p = DVec2::new(v.f64("vertex")?, v.f64("vertex")?);
         if !p.is_finite() {
-            return Err(Error::new(format!(
+            return Err(Error::format(format!(
                 "vertex {k} has a non-finite coordinate"
             )));
         }
@@ -485,7 +485,7 @@ fn parse(body: &[u8]) -> Result<Parsed> {
     let cells = cell_count as usize;
     let mut t = Cursor::new(sections[3], "triangles");
     if cells > t.left() / 3 {
-        return Err(Error::new(format!(
+        return Err(Error::format(format!(
             "header claims {cells} cells, more than the triangles section of {} bytes can hold",
             t.left()
         )));
@@ -502,12 +502,12 @@ fn parse(body: &[u8]) -> Result<Parsed> {
             } else if back <= next {
                 next - back
             } else {
-                return Err(Error::new(format!(
+                return Err(Error::format(format!(
                     "cell {c} refers to a vertex before the first"
                 )));
             };
             if index >= u64::from(vertex_count) {
-                return Err(Error::new(format!(
+                return Err(Error::format(format!(
                     "cell {c} uses vertex {index}, but there are {vertex_count}"
                 )));
             }
@@ -517,7 +517,7 @@ fn parse(body: &[u8]) -> Result<Parsed> {
     }
     t.done()?;
     if next != u64::from(vertex_count) {
-        return Err(Error::new(format!(
+        return Err(Error::format(format!(
             "the cells use {next} of the {vertex_count} vertices"
         )));
     }
@@ -525,7 +525,7 @@ fn parse(body: &[u8]) -> Result<Parsed> {
     // Block index: ascending offsets from 0 to the blocks' length.
     let blocks = cells.div_ceil(block_cells as usize);
     if lengths[4] != 8 * (blocks as u64 + 1) {
-        return Err(Error::new(format!(
+        return Err(Error::format(format!(
             "the block index is {} bytes, but {blocks} blocks need {}",
             lengths[4],
             8 * (blocks + 1)
@@ -536,14 +536,14 @@ fn parse(body: &[u8]) -> Result<Parsed> {
     for k in 0..=blocks {
         let off = b.u64("block offset")?;
         if (k == 0 && off != 0) || off < previous || off > lengths[5] {
-            return Err(Error::new(format!(
+            return Err(Error::format(format!(
                 "block offset {k} ({off}) is out of order or out of range"
             )));
         }
         previous = off;
     }
     if previous != lengths[5] {
-        return Err(Error::new(format!(
+        return Err(Error::format(format!(
             "block offsets end at {previous}, but the blocks take {} bytes",
             lengths[5]
         )));

@@ -24,7 +24,7 @@ impl<'a> Cursor<'a> {
     fn take(&mut self, n: usize, what: &str) -> Result<&'a [u8]> {
         let end = self.pos.checked_add(n).filter(|&e| e <= self.bytes.len());
         let Some(end) = end else {
-            return Err(Error::new(format!(
+            return Err(Error::format(format!(
                 "{what} at byte {} runs past the end of the file",
                 self.pos
             )));
@@ -46,12 +46,12 @@ impl<'a> Cursor<'a> {
         let len = self.u32(what)? as usize;
         let raw = self.take(len, what)?;
         String::from_utf8(raw.to_vec())
-            .map_err(|_| Error::new(format!("{what} is not valid UTF-8")))
+            .map_err(|_| Error::format(format!("{what} is not valid UTF-8")))
     }
     /// Check that the writer's recorded offset matches where we are.
     fn expect_at(&self, offset: u64, what: &str) -> Result<()> {
         if offset != self.pos as u64 {
-            return Err(Error::new(format!(
+            return Err(Error::format(format!(
                 "header says the {what} start at byte {offset}, but they start at byte {}",
                 self.pos
             )));
@@ -61,7 +61,7 @@ impl<'a> Cursor<'a> {
     fn skip_padding(&mut self) -> Result<()> {
         while !self.pos.is_multiple_of(8) {
             if self.take(1, "padding")?[0] != 0 {
-                return Err(Error::new(format!(
+                return Err(Error::format(format!(
                     "padding byte {} is not zero",
                     self.pos - 1
                 )));
@@ -74,23 +74,23 @@ impl<'a> Cursor<'a> {
 /// Decode a whole version 1 file (checksum checked).
 pub fn read_v1(bytes: &[u8]) -> Result<PvsData> {
     if bytes.len() < MAGIC.len() || bytes[..MAGIC.len()] != MAGIC {
-        return Err(Error::new("not a citypvs .pvs file (bad magic bytes)"));
+        return Err(Error::format("not a citypvs .pvs file (bad magic bytes)"));
     }
     let mut c = Cursor {
         bytes,
         pos: MAGIC.len(),
     };
     if c.u32("version")? != 1 {
-        return Err(Error::new("not a version 1 file"));
+        return Err(Error::format("not a version 1 file"));
     }
     let _flags = c.u32("flags")?;
     let file_bytes = c.u64("file length")?;
     if file_bytes != bytes.len() as u64 || bytes.len() < V1_HEADER_BYTES + 32 {
-        return Err(Error::new("truncated version 1 file"));
+        return Err(Error::format("truncated version 1 file"));
     }
     let body = bytes.len() - 32;
     if Sha256::digest(&bytes[..body]).as_slice() != &bytes[body..] {
-        return Err(Error::new("checksum mismatch"));
+        return Err(Error::format("checksum mismatch"));
     }
     let c = &mut Cursor {
         bytes: &bytes[..body],
@@ -100,7 +100,7 @@ pub fn read_v1(bytes: &[u8]) -> Result<PvsData> {
     let visible = (0..cells.len())
         .map(|k| {
             decode_record(&bytes[ranges[k]..ranges[k + 1]], object_ids.len())
-                .map_err(|e| Error::new(format!("visible set of cell {k}: {e}")))
+                .map_err(|e| Error::format(format!("visible set of cell {k}: {e}")))
         })
         .collect::<Result<Vec<_>>>()?;
     Ok(PvsData {
@@ -147,18 +147,18 @@ fn parse_body(c: &mut Cursor, body: usize) -> Result<Body> {
             },
         },
         _ => {
-            return Err(Error::new(format!(
+            return Err(Error::format(format!(
                 "unknown frame kind {kind} with CRS flag {has_crs}"
             )));
         }
     };
     if !(fx.is_finite() && fy.is_finite()) {
-        return Err(Error::new("frame origin is not finite"));
+        return Err(Error::format("frame origin is not finite"));
     }
     c.expect_at(objects_offset, "object ids")?;
     // Each id needs at least its 4-byte length: bound the count before allocating.
     if object_count > (body - c.pos) / 4 {
-        return Err(Error::new(format!(
+        return Err(Error::format(format!(
             "header claims {object_count} objects, more than the file can hold"
         )));
     }
@@ -169,7 +169,7 @@ fn parse_body(c: &mut Cursor, body: usize) -> Result<Body> {
     c.skip_padding()?;
     c.expect_at(cells_offset, "cells")?;
     if cell_count > (body - c.pos) / 56 {
-        return Err(Error::new(format!(
+        return Err(Error::format(format!(
             "header claims {cell_count} cells, more than the file can hold"
         )));
     }
@@ -180,7 +180,9 @@ fn parse_body(c: &mut Cursor, body: usize) -> Result<Body> {
             let what = format!("triangle of cell {k}");
             *p = DVec2::new(c.f64(&what)?, c.f64(&what)?);
             if !p.is_finite() {
-                return Err(Error::new(format!("cell {k} has a non-finite coordinate")));
+                return Err(Error::format(format!(
+                    "cell {k} has a non-finite coordinate"
+                )));
             }
         }
         cells.push(tri);
@@ -188,12 +190,12 @@ fn parse_body(c: &mut Cursor, body: usize) -> Result<Body> {
     c.expect_at(index_offset, "record offsets")?;
     let index_end = index_offset + 8 * (cell_count as u64 + 1);
     if records_offset != index_end {
-        return Err(Error::new(format!(
+        return Err(Error::format(format!(
             "header says the records start at byte {records_offset}, expected {index_end}"
         )));
     }
     if records_offset.checked_add(records_bytes) != Some(body as u64) {
-        return Err(Error::new(format!(
+        return Err(Error::format(format!(
             "records of {records_bytes} bytes from byte {records_offset} do not end where the checksum starts (byte {body})"
         )));
     }
@@ -202,7 +204,7 @@ fn parse_body(c: &mut Cursor, body: usize) -> Result<Body> {
     for k in 0..=cell_count {
         let at = c.u64("record offset")?;
         if (k == 0 && at != 0) || at < previous || at > records_bytes {
-            return Err(Error::new(format!(
+            return Err(Error::format(format!(
                 "record offset {k} ({at}) is out of order or out of range"
             )));
         }
@@ -210,7 +212,7 @@ fn parse_body(c: &mut Cursor, body: usize) -> Result<Body> {
         ranges.push((records_offset + at) as usize);
     }
     if previous != records_bytes {
-        return Err(Error::new(format!(
+        return Err(Error::format(format!(
             "record offsets end at {previous}, but the records take {records_bytes} bytes"
         )));
     }

@@ -111,24 +111,26 @@ impl PvsWriter {
     ) -> Result<PvsWriter> {
         info.validate()?;
         if !(1..=super::MAX_BLOCK_CELLS).contains(&block_cells) {
-            return Err(Error::new(format!("{block_cells} cells per block")));
+            return Err(Error::format(format!("{block_cells} cells per block")));
         }
         let n = object_ids.len();
         if u32::try_from(n).is_err() || u32::try_from(cells.len()).is_err() {
-            return Err(Error::new("more than 2^32 - 1 objects or cells"));
+            return Err(Error::format("more than 2^32 - 1 objects or cells"));
         }
         if object_points.len() != n {
-            return Err(Error::new(format!(
+            return Err(Error::format(format!(
                 "{n} objects but {} object points",
                 object_points.len()
             )));
         }
         if let Some(k) = object_points.iter().position(|p| !p.is_finite()) {
-            return Err(Error::new(format!("object {k} has a non-finite point")));
+            return Err(Error::format(format!("object {k} has a non-finite point")));
         }
         for (c, tri) in cells.iter().enumerate() {
             if !tri.iter().all(|p| p.is_finite()) {
-                return Err(Error::new(format!("cell {c} has a non-finite coordinate")));
+                return Err(Error::format(format!(
+                    "cell {c} has a non-finite coordinate"
+                )));
             }
         }
         let input_of_rank = spatial_ranks(&object_points);
@@ -154,8 +156,8 @@ impl PvsWriter {
                 }
             }
         }
-        let vertex_count =
-            u32::try_from(vertices.len()).map_err(|_| Error::new("more than 2^32 - 1 vertices"))?;
+        let vertex_count = u32::try_from(vertices.len())
+            .map_err(|_| Error::format("more than 2^32 - 1 vertices"))?;
 
         let mut strings = Vec::new();
         put_str(&mut strings, &info.tool_version);
@@ -252,20 +254,20 @@ impl PvsWriter {
     pub fn push_cell(&mut self, visible: &[u32]) -> Result<()> {
         let c = self.pushed;
         if c >= self.cell_count {
-            return Err(Error::new(format!(
+            return Err(Error::format(format!(
                 "more visible sets than the {} cells",
                 self.cell_count
             )));
         }
         if !visible.windows(2).all(|w| w[0] < w[1]) {
-            return Err(Error::new(format!(
+            return Err(Error::format(format!(
                 "visible set of cell {c} is not strictly ascending"
             )));
         }
         if let Some(&last) = visible.last()
             && last >= self.object_count
         {
-            return Err(Error::new(format!(
+            return Err(Error::format(format!(
                 "visible set of cell {c} holds object {last}, but there are only {} objects",
                 self.object_count
             )));
@@ -300,7 +302,7 @@ impl PvsWriter {
     /// The complete file bytes (every cell must have been pushed).
     pub fn finish(mut self) -> Result<(Vec<u8>, WriteStats)> {
         if self.pushed != self.cell_count {
-            return Err(Error::new(format!(
+            return Err(Error::format(format!(
                 "{} of {} cells' visible sets were written",
                 self.pushed, self.cell_count
             )));
@@ -347,7 +349,7 @@ fn points_of_sets(objects: usize, cells: &[[DVec2; 3]], each: &mut EachSet) -> R
     let mut cell = 0;
     each(&mut |set| {
         let Some(tri) = cells.get(cell) else {
-            return Err(Error::new(format!(
+            return Err(Error::format(format!(
                 "more visible sets than the {} cells",
                 cells.len()
             )));
@@ -395,7 +397,7 @@ pub fn write_streamed(
             w.push_cell(set)
         })?;
         if pushed != count {
-            return Err(Error::new(format!(
+            return Err(Error::format(format!(
                 "{count} cells but {pushed} visible sets"
             )));
         }
@@ -415,7 +417,7 @@ pub fn encode_pvs(data: &PvsData) -> Result<(Vec<u8>, WriteStats)> {
 /// Like [`encode_pvs`] with one representative point per object given.
 pub fn encode_pvs_with_points(data: &PvsData, points: Vec<DVec2>) -> Result<(Vec<u8>, WriteStats)> {
     if data.visible.len() != data.cells.len() {
-        return Err(Error::new(format!(
+        return Err(Error::format(format!(
             "{} cells but {} visible sets",
             data.cells.len(),
             data.visible.len()

@@ -379,7 +379,7 @@ impl Part {
     /// The file's bytes.
     pub fn encode(&self) -> Result<Vec<u8>> {
         let payload = bincode::encode_to_vec(self, bincode::config::standard())
-            .map_err(|e| Error::new(format!("cannot encode a part file: {e}")))?;
+            .map_err(|e| Error::format(format!("cannot encode a part file: {e}")))?;
         let mut out = Vec::with_capacity(PREAMBLE_BYTES + payload.len());
         out.extend_from_slice(&PART_MAGIC);
         out.extend_from_slice(&PART_VERSION.to_le_bytes());
