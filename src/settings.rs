@@ -93,15 +93,19 @@ pub fn readable(v: f64) -> String {
     }
 }
 
-/// A positive, finite length no larger than `max`.
-fn positive(name: &'static str, value: f64, max: f64) -> Result<f64> {
-    if !(value > 0.0 && value.is_finite()) {
+/// A finite length no larger than `max`: positive, or zero too when
+/// `zero_ok`.
+fn length(name: &'static str, value: f64, max: f64, zero_ok: bool) -> Result<f64> {
+    let fits = if zero_ok { value >= 0.0 } else { value > 0.0 };
+    if !(fits && value.is_finite()) {
+        let what = if zero_ok {
+            "zero or a positive number of metres"
+        } else {
+            "a positive number of metres"
+        };
         return Err(Error::setting(
             name,
-            format!(
-                "must be a positive number of metres, got {}",
-                readable(value)
-            ),
+            format!("must be {what}, got {}", readable(value)),
         ));
     }
     if value > max {
@@ -113,24 +117,12 @@ fn positive(name: &'static str, value: f64, max: f64) -> Result<f64> {
     Ok(value)
 }
 
-/// Zero or a positive, finite length no larger than `max`.
+fn positive(name: &'static str, value: f64, max: f64) -> Result<f64> {
+    length(name, value, max, false)
+}
+
 fn non_negative(name: &'static str, value: f64, max: f64) -> Result<f64> {
-    if !(value >= 0.0 && value.is_finite()) {
-        return Err(Error::setting(
-            name,
-            format!(
-                "must be zero or a positive number of metres, got {}",
-                readable(value)
-            ),
-        ));
-    }
-    if value > max {
-        return Err(Error::setting(
-            name,
-            format!("{} m is absurd (at most {max} m)", readable(value)),
-        ));
-    }
-    Ok(value)
+    length(name, value, max, true)
 }
 
 impl Settings {

@@ -172,30 +172,13 @@ pub struct Part {
     pub set_runs: Vec<u8>,
 }
 
-fn push_leb128(out: &mut Vec<u8>, mut v: u32) {
-    loop {
-        let byte = (v & 0x7f) as u8;
-        v >>= 7;
-        if v == 0 {
-            out.push(byte);
-            return;
-        }
-        out.push(byte | 0x80);
-    }
+fn push_leb128(out: &mut Vec<u8>, v: u32) {
+    crate::pvs::codec::write_leb128(out, u64::from(v));
 }
 
 /// One LEB128 number of at most 32 bits from `bytes` at `*at`.
 fn read_leb128(bytes: &[u8], at: &mut usize) -> Option<u32> {
-    let mut v: u64 = 0;
-    for shift in (0..35).step_by(7) {
-        let b = *bytes.get(*at)?;
-        *at += 1;
-        v |= u64::from(b & 0x7f) << shift;
-        if b & 0x80 == 0 {
-            return u32::try_from(v).ok();
-        }
-    }
-    None
+    crate::pvs::codec::read_leb128_u32(bytes, at).ok()
 }
 
 /// Decode one set's run bytes, calling `f` with each member; `None` when
