@@ -16,9 +16,10 @@ pub struct InputArgs {
     /// (OSM PBF is always lon/lat; CityJSON always metres).
     #[arg(long)]
     pub metric: bool,
-    /// Height in metres for buildings with no height or level tags.
-    #[arg(long, default_value_t = DEFAULT_HEIGHT, value_name = "METRES")]
-    pub default_height: f64,
+    /// Height in metres for buildings with no height or level tags
+    /// (GeoJSON and OSM PBF; CityJSON heights come from its geometry) [default: 9].
+    #[arg(long, value_name = "METRES")]
+    pub default_height: Option<f64>,
     /// Turn every warning about repaired or skipped features into an error.
     #[arg(long)]
     pub strict: bool,
@@ -31,7 +32,8 @@ impl InputArgs {
     pub fn options(&self) -> InputOptions {
         InputOptions {
             metric: self.metric,
-            default_height: self.default_height,
+            default_height: self.default_height.unwrap_or(DEFAULT_HEIGHT),
+            default_height_given: self.default_height.is_some(),
             strict: self.strict,
             format: self.format,
         }

@@ -316,7 +316,17 @@ impl<'a> FamilyRoots<'a> {
 }
 
 /// Parse a CityJSON document into buildings.
-pub fn parse(root: &Value, name: &str, _options: &InputOptions) -> Result<Parsed> {
+pub fn parse(root: &Value, name: &str, options: &InputOptions) -> Result<Parsed> {
+    if options.metric {
+        return Err(Error::input(format!(
+            "{name}: --metric does not apply to CityJSON files (they are always in metres)"
+        )));
+    }
+    if options.default_height_given {
+        return Err(Error::input(format!(
+            "{name}: --default-height does not apply to CityJSON files (heights come from the geometry)"
+        )));
+    }
     let root = root
         .as_object()
         .ok_or_else(|| Error::input(format!("{name}: CityJSON must be a JSON object")))?;

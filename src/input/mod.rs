@@ -43,6 +43,9 @@ pub struct InputOptions {
     pub metric: bool,
     /// Height for buildings with no height information.
     pub default_height: f64,
+    /// The default height was asked for (a format without height tags
+    /// refuses it rather than ignoring it).
+    pub default_height_given: bool,
     /// Turn every warning into an error.
     pub strict: bool,
     /// Force a format instead of detecting it.
@@ -54,6 +57,7 @@ impl Default for InputOptions {
         InputOptions {
             metric: false,
             default_height: DEFAULT_HEIGHT,
+            default_height_given: false,
             strict: false,
             format: None,
         }

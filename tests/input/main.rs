@@ -8,6 +8,7 @@ mod generate_oldtown;
 mod generate_props;
 mod input_cityjson;
 mod input_errors;
+mod input_flags;
 mod input_formats;
 mod input_geojson;
 mod input_hostile;
