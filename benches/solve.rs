@@ -8,8 +8,7 @@ use std::time::Instant;
 
 use citypvs::generate::{GenerateParams, generate_geojson};
 use citypvs::input::{InputOptions, read_city_bytes};
-use citypvs::prepare::{PrepareParams, prepare};
-use citypvs::visibility::VisibilityParams;
+use citypvs::prepare::prepare;
 use citypvs::visibility::bitset::ObjectSet;
 use citypvs::visibility::index::SceneIndex;
 use citypvs::visibility::samples::MeshTopology;
@@ -28,8 +27,8 @@ fn main() {
     let geojson = generate_geojson(&GenerateParams { buildings, seed: 1 });
     let city = read_city_bytes(geojson.as_bytes(), "bench", &InputOptions::default())
         .expect("read generated city");
-    let scene = prepare(city, &PrepareParams::default()).expect("prepare");
-    let params = VisibilityParams::for_eps(scene.eps);
+    let scene = prepare(city, &citypvs::Settings::default()).expect("prepare");
+    let params = scene.settings.clone();
     let index = SceneIndex::build(&scene.city.buildings, &scene.occluders, params.pixel);
     let topo = MeshTopology::of(&scene.cells.triangles);
     let n = scene.city.buildings.len();
@@ -38,7 +37,7 @@ fn main() {
     let runs: Vec<_> = (0..topo.edges.len())
         .step_by(step)
         .take(edges)
-        .map(|e| topo.edge_interior_samples(e, 2.0 * scene.eps))
+        .map(|e| topo.edge_interior_samples(e, scene.settings.sample_spacing()))
         .filter(|r| !r.is_empty())
         .collect();
     let samples: usize = runs.iter().map(Vec::len).sum();

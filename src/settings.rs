@@ -256,7 +256,8 @@ mod tests {
 
     #[test]
     fn each_bad_number_is_refused_with_its_own_name() {
-        let cases: Vec<(&str, Box<dyn Fn(&mut RawSettings)>)> = vec![
+        type Edit = Box<dyn Fn(&mut RawSettings)>;
+        let cases: Vec<(&str, Edit)> = vec![
             ("eps", Box::new(|r| r.eps = Some(0.0))),
             ("eps", Box::new(|r| r.eps = Some(f64::NAN))),
             ("eps", Box::new(|r| r.eps = Some(1e9))),

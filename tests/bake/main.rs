@@ -4,7 +4,6 @@
 //! suite links a few binaries instead of one per file.
 
 mod bake_cli;
-#[allow(dead_code)]
 #[path = "../common/mod.rs"]
 mod common;
 mod output_files;

@@ -6,7 +6,6 @@
 mod cells_basic;
 mod cells_narrow;
 mod cells_props;
-#[allow(dead_code)]
 #[path = "../common/mod.rs"]
 mod common;
 mod geometry_basic;
@@ -14,6 +13,5 @@ mod geometry_kotka;
 mod geometry_props;
 mod geometry_robustness;
 mod geometry_timing;
-#[allow(dead_code)]
 #[path = "../geometry_scenes/mod.rs"]
 mod scenes;

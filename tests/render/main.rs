@@ -3,7 +3,6 @@
 //! One test binary for the group (each file below is a module), so the
 //! suite links a few binaries instead of one per file.
 
-#[allow(dead_code)]
 #[path = "../common/mod.rs"]
 mod common;
 mod render_cli;
