@@ -8,5 +8,6 @@ mod bake_cli;
 mod common;
 mod output_files;
 mod settings_cli;
+mod tiny_buildings;
 mod visibility_cases;
 mod visibility_runs;
