@@ -8,7 +8,6 @@ use std::time::Instant;
 use crate::Result;
 use crate::prepare::{Scene, StageTime};
 use crate::pvs::{BakeInfo, PvsData};
-use crate::settings::Settings;
 use crate::visibility::{SolveStats, VisibilityEngine};
 
 /// Statistics of one bake.
@@ -79,12 +78,6 @@ pub fn bake_info(scene: &Scene) -> BakeInfo {
         region_hash: s.region_hash(),
         tool_version: env!("CARGO_PKG_VERSION").to_string(),
     }
-}
-
-/// The settings a `.pvs` header records, validated again (a file is user
-/// data), with the region the user gives for it.
-pub fn settings_of(info: &BakeInfo, region: Option<crate::model::Polygon>) -> Result<Settings> {
-    info.settings(region)
 }
 
 /// Solve the cells in `range` and hand each set to `sink` in cell order.

@@ -94,7 +94,7 @@ fn check_pvs(path: &Path, reader: &PvsReader, scene: &Scene, args: &RenderArgs) 
             args.city.display()
         )));
     }
-    let baked = crate::bake::settings_of(info, scene.settings.region.clone())?;
+    let baked = info.settings(scene.settings.region.clone())?;
     if baked != scene.settings {
         return Err(Error::mismatch(format!(
             "{} was baked with eps {}, max cell edge {}, margin {}, eye height {}, pixel {}, but the scene was \
@@ -241,7 +241,7 @@ pub fn run(args: &RenderArgs) -> Result<i32> {
     let city = read_city(&args.city, &args.input.options())?;
     let region = args.scene.region(&city.frame)?;
     let settings = match &reader {
-        Some(r) => crate::bake::settings_of(r.info(), region).map_err(|e| {
+        Some(r) => r.info().settings(region).map_err(|e| {
             e.context(
                 args.pvs
                     .as_ref()

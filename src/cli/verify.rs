@@ -73,7 +73,7 @@ fn check_cells(
         Some(path) => Some(crate::input::read_region(path, &city.frame)?),
         None => None,
     };
-    let settings = crate::bake::settings_of(info, region).map_err(|e| e.context(pvs_name))?;
+    let settings = info.settings(region).map_err(|e| e.context(pvs_name))?;
     let scene = crate::prepare::prepare(city.clone(), &settings)?;
     let ours = &scene.cells.triangles;
     let theirs = reader.cell_triangles();
@@ -140,7 +140,6 @@ fn run_in_pool(args: &VerifyArgs, threads: usize) -> Result<i32> {
     let pvs_name = args.pvs.display().to_string();
     let reader = PvsReader::open(&args.pvs)?;
     let info = reader.info();
-    crate::bake::settings_of(info, None).map_err(|e| e.context(&pvs_name))?;
     if reader.cell_count() == 0 {
         return Err(Error::mismatch(format!(
             "{pvs_name}: the file has no cells: there is nothing to check"

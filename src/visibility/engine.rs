@@ -93,9 +93,9 @@ impl StoredSet {
     }
 
     /// Members in ascending order.
-    fn to_vec(&self) -> Vec<u32> {
+    fn into_vec(self) -> Vec<u32> {
         match self {
-            StoredSet::Sparse(v) => v.clone(),
+            StoredSet::Sparse(v) => v,
             StoredSet::Dense(d) => d.to_vec(),
         }
     }
@@ -357,7 +357,7 @@ impl<'a> VisibilityEngine<'a> {
                 .collect();
             stats.peak_units_held = stats.peak_units_held.max(needed.len() + held.len());
             for (k, set) in sets.into_iter().enumerate() {
-                sink(start + k, set.to_vec())?;
+                sink(start + k, set.into_vec())?;
             }
             start = end;
         }

@@ -3,22 +3,11 @@
 //! links followed, an input never overwritten, errors naming the user's
 //! path, and temporary files that say what they are and do not pile up.
 
+use crate::common::{citypvs, stderr};
 use std::fs;
 use std::os::unix::fs::FileTypeExt;
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn citypvs(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_citypvs"))
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .expect("run citypvs")
-}
-
-fn stderr(out: &Output) -> String {
-    String::from_utf8_lossy(&out.stderr).into_owned()
-}
+use std::process::Command;
 
 /// A small metric city that bakes in well under a second.
 const SMALL_CITY: &str = r#"{"type":"FeatureCollection","features":[

@@ -136,6 +136,20 @@ pub fn cell_at(c: DVec2, size: f64) -> [DVec2; 3] {
     ]
 }
 
+/// Run the `citypvs` binary in `dir`.
+pub fn citypvs(dir: &std::path::Path, args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_citypvs"))
+        .current_dir(dir)
+        .args(args)
+        .output()
+        .expect("run citypvs")
+}
+
+/// A finished command's standard error as text.
+pub fn stderr(out: &std::process::Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
 /// The offsets of the header's numbers in a `.pvs` file (docs/FORMAT.md).
 pub const HEADER_EPS: usize = 24;
 pub const HEADER_EYE_HEIGHT: usize = 32;

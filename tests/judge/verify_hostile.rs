@@ -3,8 +3,9 @@
 //! are not the city's, and cells whose every viewpoint is inside a building
 //! all exit 2; a genuine bake (also with a region) still passes.
 
+use crate::common::citypvs;
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Output;
 
 use citypvs::pvs::{PvsData, PvsReader, write_pvs};
 use glam::DVec2;
@@ -14,14 +15,6 @@ const CITY: &str = r#"{"type":"FeatureCollection","features":[
 {"type":"Feature","properties":{"id":"b","height":12},"geometry":{"type":"Polygon","coordinates":[[[40,0],[60,0],[60,20],[40,20],[40,0]]]}},
 {"type":"Feature","properties":{"id":"c","height":30},"geometry":{"type":"Polygon","coordinates":[[[20,40],[40,40],[40,60],[20,60],[20,40]]]}}
 ]}"#;
-
-fn citypvs(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_citypvs"))
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .expect("run citypvs")
-}
 
 fn text(out: &Output) -> String {
     format!(

@@ -2,26 +2,15 @@
 //! large to make: an absurd `--radius`, and a `.pvs` whose header holds a
 //! tiny, zero or negative pixel size.
 
+use crate::common::{citypvs, stderr};
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Output;
 use std::time::Instant;
 
 const CITY: &str = r#"{"type":"FeatureCollection","features":[
 {"type":"Feature","properties":{"id":"a","height":10},"geometry":{"type":"Polygon","coordinates":[[[0,0],[20,0],[20,20],[0,20],[0,0]]]}},
 {"type":"Feature","properties":{"id":"b","height":12},"geometry":{"type":"Polygon","coordinates":[[[40,0],[60,0],[60,20],[40,20],[40,0]]]}}
 ]}"#;
-
-fn citypvs(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_citypvs"))
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .expect("run citypvs")
-}
-
-fn stderr(out: &Output) -> String {
-    String::from_utf8_lossy(&out.stderr).into_owned()
-}
 
 fn city_dir() -> tempfile::TempDir {
     let dir = tempfile::tempdir().unwrap();
