@@ -9,6 +9,8 @@ mod bisect;
 mod lattice;
 mod mesh;
 pub mod narrow;
+mod straighten;
+pub mod tiles;
 mod region;
 
 pub use mesh::MAX_VERTICES;

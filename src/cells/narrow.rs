@@ -46,20 +46,48 @@ pub struct Opened {
 }
 
 /// The free space opened by the structuring polygon of width `min_gap`,
-/// then cleaned up. `min_gap <= 0` returns `free` unchanged.
+/// then cleaned up, tile by tile (see [`super::tiles`]), then with its
+/// facade runs straightened (see [`super::straighten`]). `min_gap <= 0`
+/// returns `free` unchanged.
 pub fn open_free_space(free: &MultiPolygon, min_gap: f64) -> Opened {
+    open_free_space_with(free, min_gap, &super::tiles::Tiling::new(min_gap))
+}
+
+/// [`open_free_space`] with a given tiling (tests compare tilings).
+pub fn open_free_space_with(
+    free: &MultiPolygon,
+    min_gap: f64,
+    tiling: &super::tiles::Tiling,
+) -> Opened {
     if min_gap.is_nan() || min_gap <= 0.0 || free.is_empty() {
         return Opened { free: free.clone() };
     }
+    let stitched = super::tiles::open_tiled(free, tiling, |piece| open_piece(piece, min_gap));
+    // The border of two tiles may leave short edges where their clean-ups
+    // differed: one more clean-up pass over the merged outline.
+    let cleaned = clean(&stitched, free, min_gap);
+    let straight = super::straighten::straighten(&cleaned, min_gap);
+    Opened { free: straight }
+}
+
+/// The opening and clean-up of one piece of free space, whole.
+pub fn open_piece(free: &MultiPolygon, min_gap: f64) -> MultiPolygon {
     let r = 0.5 * min_gap;
     // Erode by D(r + s) = D(r) + D(s), dilate by D(r): the result is the
     // union of the translates of D(r) whose D(s)-neighbourhood lies in free.
     let eroded = erode_by_polygon(free, r + CLEARANCE, 1.0 + 1e-12);
     if eroded.0.is_empty() {
-        return Opened { free: Vec::new() };
+        return Vec::new();
     }
     let opened = dilate_by_polygon(&eroded, r, 1.0 - 1e-12);
+    drop(eroded);
     let opened = multipolygon_from_geo(&opened, MIN_PIECE_AREA);
+    clean(&opened, free, min_gap)
+}
+
+/// The outline clean-up of the opened free space `opened`; `free` is the
+/// free space it was opened from (what added corners must keep clear of).
+fn clean(opened: &MultiPolygon, free: &MultiPolygon, min_gap: f64) -> MultiPolygon {
     let short = SHORT_EDGE * min_gap;
     let short_starts: Vec<DVec2> = opened
         .iter()
@@ -70,12 +98,15 @@ pub fn open_free_space(free: &MultiPolygon, min_gap: f64) -> Opened {
                 .map(move |i| ring[i])
         })
         .collect();
+    if short_starts.is_empty() {
+        return opened.clone();
+    }
     let walls = Walls::new(free, BUCKET * short, &short_starts);
-    let cleaned = opened
+    opened
         .iter()
         .filter_map(|p| clean_polygon(p, short, &walls))
-        .collect();
-    Opened { free: cleaned }
+        .filter(|p| 0.5 * ring_signed_area2(&p.exterior) >= MIN_PIECE_AREA)
+        .collect()
 }
 
 /// The vertices of the regular polygon with `SIDES` sides whose inscribed
