@@ -208,7 +208,7 @@ struct Outline {
 
 /// A uniform bucket grid of segments (by an index), kept only over the
 /// active buckets: those near the short edges, where the clean-up works.
-struct Grid {
+pub(super) struct Grid {
     size: f64,
     active: HashSet<(i64, i64)>,
     buckets: HashMap<(i64, i64), Vec<usize>>,
@@ -216,7 +216,7 @@ struct Grid {
 
 impl Grid {
     /// A grid of buckets `size` wide, active within two buckets of `around`.
-    fn new(size: f64, around: impl Iterator<Item = DVec2>) -> Grid {
+    pub(super) fn new(size: f64, around: impl Iterator<Item = DVec2>) -> Grid {
         let mut grid = Grid {
             size,
             active: HashSet::new(),
@@ -244,7 +244,7 @@ impl Grid {
     /// through: the buckets of points every half bucket along it, with their
     /// neighbours. A segment within 0.75 * size of a point p is then filed
     /// under p's bucket.
-    fn insert(&mut self, i: usize, a: DVec2, b: DVec2) {
+    pub(super) fn insert(&mut self, i: usize, a: DVec2, b: DVec2) {
         if self.active.is_empty() {
             return;
         }
@@ -269,7 +269,7 @@ impl Grid {
 
     /// Segments filed near `p` (some may be stale), or `None` when p is
     /// outside the active buckets (nothing is known there).
-    fn near(&self, p: DVec2) -> Option<Vec<usize>> {
+    pub(super) fn near(&self, p: DVec2) -> Option<Vec<usize>> {
         let k = self.key(p);
         if !self.active.contains(&k) {
             return None;
@@ -333,13 +333,13 @@ fn segment_distance(p: DVec2, q: DVec2, a: DVec2, b: DVec2) -> f64 {
         .min(distance_to_segment(b, p, q))
 }
 
-fn orient(a: DVec2, b: DVec2, c: DVec2) -> f64 {
+pub(super) fn orient(a: DVec2, b: DVec2, c: DVec2) -> f64 {
     (b - a).perp_dot(c - a)
 }
 
 /// Whether the closed segments p-q and r-s share a point, with a tolerance
 /// that counts near-touching as touching.
-fn segments_meet(p: DVec2, q: DVec2, r: DVec2, s: DVec2) -> bool {
+pub(super) fn segments_meet(p: DVec2, q: DVec2, r: DVec2, s: DVec2) -> bool {
     let scale = (q - p).length() * (s - r).length();
     let tol = 1e-12 * scale.max(1e-300);
     let d1 = orient(p, q, r);
