@@ -9,9 +9,9 @@ mod bisect;
 mod lattice;
 mod mesh;
 pub mod narrow;
+mod region;
 mod straighten;
 pub mod tiles;
-mod region;
 
 pub use mesh::MAX_VERTICES;
 

@@ -672,7 +672,13 @@ fn clean_polygon(polygon: &Polygon, short: f64, walls: &Walls) -> Option<Polygon
     let mut work: Vec<usize> = (0..outline.points.len())
         .filter(|&i| outline.len(i) < 2.0 * short)
         .collect();
-    work.reverse();
+    // In the order of the edges' start points, so that the same outline
+    // is cleaned the same way whichever vertex its rings start at (a tile
+    // sees the same place as the whole city).
+    work.sort_by(|&a, &b| {
+        let (p, q) = (outline.points[a], outline.points[b]);
+        q.x.total_cmp(&p.x).then(q.y.total_cmp(&p.y))
+    });
     let mut guard = 8 * outline.points.len() + 100;
     while let Some(i) = work.pop() {
         guard -= 1;

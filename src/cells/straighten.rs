@@ -54,7 +54,11 @@ pub fn straighten(free: &MultiPolygon, min_gap: f64) -> MultiPolygon {
     let mut around: Vec<DVec2> = Vec::new();
     for (ring, plan) in rings.iter().zip(&plans) {
         let Some(plan) = plan else { continue };
-        for run in plan.runs.iter().filter(|r| r.end > r.start + 1 || r.shift > 0.0) {
+        for run in plan
+            .runs
+            .iter()
+            .filter(|r| r.end > r.start + 1 || r.shift > 0.0)
+        {
             let (a, b) = (ring[run.start % ring.len()], ring[run.end % ring.len()]);
             samples(a, b, step, &mut around);
         }
@@ -73,7 +77,9 @@ pub fn straighten(free: &MultiPolygon, min_gap: f64) -> MultiPolygon {
         for _ in 0..ROUNDS {
             let corners = p.corners(rings[ri], tol);
             let refused: Vec<usize> = (0..p.runs.len())
-                .filter(|&k| !p.runs[k].kept && !p.check(k, &corners, &rings, ri, &grid, &ids, step))
+                .filter(|&k| {
+                    !p.runs[k].kept && !p.check(k, &corners, &rings, ri, &grid, &ids, step)
+                })
                 .collect();
             for &k in &refused {
                 p.runs[k].kept = true;
@@ -210,7 +216,14 @@ impl Plan {
         let n = ring.len();
         let m = live.len();
         (0..m)
-            .map(|k| corner(&live[(k + m - 1) % m], &live[k], ring[live[k].start % n], tol))
+            .map(|k| {
+                corner(
+                    &live[(k + m - 1) % m],
+                    &live[k],
+                    ring[live[k].start % n],
+                    tol,
+                )
+            })
             .collect()
     }
 
@@ -329,7 +342,11 @@ fn free_side(ring: &[DVec2], v: usize, q: DVec2) -> bool {
         return true;
     }
     let (l1, l2) = (orient(p, c, q) >= 0.0, orient(c, x, q) >= 0.0);
-    if orient(p, c, x) >= 0.0 { l1 && l2 } else { l1 || l2 }
+    if orient(p, c, x) >= 0.0 {
+        l1 && l2
+    } else {
+        l1 || l2
+    }
 }
 
 /// Whether every vertex strictly between `i` and `j` lies within `tol` of

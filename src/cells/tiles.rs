@@ -120,9 +120,11 @@ pub fn tiles(free: &MultiPolygon, tiling: &Tiling) -> Vec<Tile> {
             })
         })
         .collect();
-    let Some(all) = free.iter().map(|p| ring_bounds(&p.exterior)).reduce(|a, b| {
-        (a.0.min(b.0), a.1.max(b.1))
-    }) else {
+    let Some(all) = free
+        .iter()
+        .map(|p| ring_bounds(&p.exterior))
+        .reduce(|a, b| (a.0.min(b.0), a.1.max(b.1)))
+    else {
         return Vec::new();
     };
     let s = tiling.top_side;
@@ -206,7 +208,8 @@ pub fn cut_to(free: &MultiPolygon, bounds: &[(Bounds, Vec<Bounds>)], b: Bounds) 
     if near.is_empty() {
         return near;
     }
-    let cut = multipolygon_to_geo(&near).intersection(&geo::MultiPolygon::new(vec![rect(b.0, b.1)]));
+    let cut =
+        multipolygon_to_geo(&near).intersection(&geo::MultiPolygon::new(vec![rect(b.0, b.1)]));
     multipolygon_from_geo(&cut, 0.0)
 }
 
@@ -290,23 +293,35 @@ pub fn stitch(mut pieces: Vec<MultiPolygon>, min_side: f64) -> MultiPolygon {
     let mut lines: BTreeMap<(bool, i64), Vec<At>> = BTreeMap::new();
     for (pi, mp) in pieces.iter().enumerate() {
         for (qi, p) in mp.iter().enumerate() {
-            for (ri, ring) in std::iter::once(&p.exterior).chain(p.holes.iter()).enumerate() {
+            for (ri, ring) in std::iter::once(&p.exterior)
+                .chain(p.holes.iter())
+                .enumerate()
+            {
                 for (vi, v) in ring.iter().enumerate() {
                     let at = (pi as u32, qi as u32, ri as u32, vi as u32);
                     if on_grid(v.x, min_side) {
                         let key = (true, (v.x / min_side).round() as i64);
-                        lines.entry(key).or_default().push((v.y, at.0, at.1, at.2, at.3));
+                        lines
+                            .entry(key)
+                            .or_default()
+                            .push((v.y, at.0, at.1, at.2, at.3));
                     }
                     if on_grid(v.y, min_side) {
                         let key = (false, (v.y / min_side).round() as i64);
-                        lines.entry(key).or_default().push((v.x, at.0, at.1, at.2, at.3));
+                        lines
+                            .entry(key)
+                            .or_default()
+                            .push((v.x, at.0, at.1, at.2, at.3));
                     }
                 }
             }
         }
     }
     for ((vertical, _), mut list) in lines {
-        list.sort_by(|a, b| a.0.total_cmp(&b.0).then((a.1, a.2, a.3, a.4).cmp(&(b.1, b.2, b.3, b.4))));
+        list.sort_by(|a, b| {
+            a.0.total_cmp(&b.0)
+                .then((a.1, a.2, a.3, a.4).cmp(&(b.1, b.2, b.3, b.4)))
+        });
         let mut start = 0;
         while start < list.len() {
             let mut end = start + 1;
@@ -341,5 +356,36 @@ pub fn stitch(mut pieces: Vec<MultiPolygon>, min_side: f64) -> MultiPolygon {
         return all;
     }
     let merged = geo::unary_union(&multipolygon_to_geo(&all).0);
-    multipolygon_from_geo(&merged, 0.0)
+    let mut merged = multipolygon_from_geo(&merged, 0.0);
+    for p in merged.iter_mut() {
+        for ring in std::iter::once(&mut p.exterior).chain(p.holes.iter_mut()) {
+            drop_straight_vertices(ring);
+        }
+    }
+    merged
+}
+
+/// Vertices within [`SNAP`] of the segment joining their neighbours (where
+/// a tile border crossed a straight edge) are dropped: the outline moves by
+/// at most that much, far within the clearance.
+fn drop_straight_vertices(ring: &mut Ring) {
+    let mut out: Ring = Vec::with_capacity(ring.len());
+    for i in 0..ring.len() {
+        let v = ring[i];
+        let next = ring[(i + 1) % ring.len()];
+        if let Some(&prev) = out.last()
+            && out.len() + (ring.len() - i) > 3
+            && crate::model::distance_to_segment(v, prev, next) <= SNAP
+        {
+            continue;
+        }
+        out.push(v);
+    }
+    // The first vertex against the last kept and the second.
+    if out.len() > 3
+        && crate::model::distance_to_segment(out[0], out[out.len() - 1], out[1]) <= SNAP
+    {
+        out.remove(0);
+    }
+    *ring = out;
 }

@@ -6,6 +6,7 @@
 mod cells_basic;
 mod cells_narrow;
 mod cells_props;
+mod cells_tiles;
 #[path = "../common/mod.rs"]
 mod common;
 mod geometry_basic;
