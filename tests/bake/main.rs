@@ -9,5 +9,6 @@ mod common;
 mod output_files;
 mod settings_cli;
 mod tiny_buildings;
+mod tiny_opening;
 mod visibility_cases;
 mod visibility_runs;
