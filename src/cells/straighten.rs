@@ -36,7 +36,7 @@ const ROUNDS: usize = 8;
 /// The free space with every facade run straightened; nothing changes when
 /// `min_gap <= 0`.
 pub fn straighten(free: &MultiPolygon, min_gap: f64) -> MultiPolygon {
-    if !(min_gap > 0.0) || free.is_empty() {
+    if min_gap.is_nan() || min_gap <= 0.0 || free.is_empty() {
         return free.clone();
     }
     let tol = TOLERANCE * min_gap;
