@@ -49,7 +49,9 @@ pub fn straighten(free: &MultiPolygon, min_gap: f64) -> MultiPolygon {
         return free.clone();
     }
     // The outline's segments, filed near the runs that change.
-    let size = 16.0 * tol;
+    // Buckets of at least 4 m: few enough to hold for a whole city, and
+    // more than 4 times the widest part a run cuts away (4 t).
+    let size = (16.0 * tol).max(4.0);
     let step = 0.5 * size;
     let mut around: Vec<DVec2> = Vec::new();
     for (ring, plan) in rings.iter().zip(&plans) {
