@@ -4,13 +4,12 @@
 //! and the block being filled. [`encode_pvs`] and [`write_pvs`] write a whole
 //! [`PvsData`] through it.
 
-use std::collections::HashMap;
 use std::path::Path;
 
 use glam::DVec2;
 use sha2::{Digest, Sha256};
 
-use super::blocks::encode_cell;
+use super::blocks::BlockEncoder;
 use super::codec::{bitset_len, write_leb128, zero_rle_len};
 use super::{BLOCK_CELLS, BakeInfo, FORMAT_VERSION, HEADER_BYTES, MAGIC, PvsData, WriteStats};
 use crate::frame::Frame;
@@ -29,13 +28,10 @@ pub struct PvsWriter {
     index_at: usize,
     blocks_at: usize,
     pushed: usize,
-    block: Vec<u8>,
-    /// The sets (ranks) of the block's cells so far.
-    earlier: Vec<Vec<u32>>,
+    block: BlockEncoder,
     cur: Vec<u32>,
-    diff: Vec<u32>,
     stats: WriteStats,
-    mode_counts: [u64; 4],
+    coding_counts: [u64; 3],
 }
 
 fn put_u32(out: &mut Vec<u8>, v: u32) {
@@ -139,25 +135,12 @@ impl PvsWriter {
             rank_of[i as usize] = r as u32;
         }
 
-        // Vertex table in order of first use; corners as back-references.
-        let mut vertex_of: HashMap<(u64, u64), u32> = HashMap::new();
-        let mut vertices = Vec::new();
-        let mut triangles = Vec::new();
-        for tri in &cells {
-            for p in tri {
-                let key = (p.x.to_bits(), p.y.to_bits());
-                let next = vertices.len() as u32;
-                let v = *vertex_of.entry(key).or_insert(next);
-                if v == next {
-                    vertices.push(*p);
-                    write_leb128(&mut triangles, 0);
-                } else {
-                    write_leb128(&mut triangles, u64::from(next - v));
-                }
-            }
-        }
+        // Vertices in order of first use, corners as back-references.
+        let (vertices, corners) = super::mesh::index_mesh(&cells);
         let vertex_count = u32::try_from(vertices.len())
             .map_err(|_| Error::format("more than 2^32 - 1 vertices"))?;
+        let vertex_bytes = super::mesh::encode_vertices(&vertices);
+        let triangles = super::mesh::encode_triangles(&corners);
 
         let mut strings = Vec::new();
         put_str(&mut strings, &info.tool_version);
@@ -170,11 +153,6 @@ impl PvsWriter {
         }
         for &i in &input_of_rank {
             write_leb128(&mut objects, u64::from(i));
-        }
-        let mut vertex_bytes = Vec::with_capacity(vertices.len() * 16);
-        for p in &vertices {
-            put_f64(&mut vertex_bytes, p.x);
-            put_f64(&mut vertex_bytes, p.y);
         }
         let block_count = cells.len().div_ceil(block_cells as usize);
         let index_len = 8 * (block_count + 1);
@@ -241,12 +219,10 @@ impl PvsWriter {
             index_at,
             blocks_at,
             pushed: 0,
-            block: Vec::new(),
-            earlier: Vec::new(),
+            block: BlockEncoder::new(n as u32),
             cur: Vec::new(),
-            diff: Vec::new(),
             stats,
-            mode_counts: [0; 4],
+            coding_counts: [0; 3],
         })
     }
 
@@ -279,14 +255,12 @@ impl PvsWriter {
         self.cur
             .extend(visible.iter().map(|&i| self.rank_of[i as usize]));
         self.cur.sort_unstable();
-        let mode = encode_cell(&self.earlier, &self.cur, &mut self.diff, &mut self.block);
-        self.mode_counts[mode as usize] += 1;
-        self.earlier.push(std::mem::take(&mut self.cur));
+        let refs = self.block.push(&self.cur);
+        self.coding_counts[refs as usize] += 1;
         self.pushed += 1;
         if self.pushed.is_multiple_of(self.block_cells) || self.pushed == self.cell_count {
-            self.out.extend_from_slice(&self.block);
-            self.block.clear();
-            self.earlier.clear();
+            let bytes = self.block.finish();
+            self.out.extend_from_slice(&bytes);
             let b = self.pushed.div_ceil(self.block_cells);
             let end = (self.out.len() - self.blocks_at) as u64;
             patch_u64(&mut self.out, self.index_at + 8 * b, end);
@@ -294,9 +268,9 @@ impl PvsWriter {
         Ok(())
     }
 
-    /// How many cells used each mode so far, index = mode.
-    pub fn mode_counts(&self) -> [u64; 4] {
-        self.mode_counts
+    /// How many cells were coded with no, one and two references so far.
+    pub fn coding_counts(&self) -> [u64; 3] {
+        self.coding_counts
     }
 
     /// The complete file bytes (every cell must have been pushed).

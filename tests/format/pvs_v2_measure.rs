@@ -16,7 +16,7 @@ fn encode(
     data: &PvsData,
     points: &[DVec2],
     block: u32,
-) -> (Vec<u8>, citypvs::pvs::WriteStats, [u64; 4]) {
+) -> (Vec<u8>, citypvs::pvs::WriteStats, [u64; 3]) {
     let mut w = PvsWriter::with_block_cells(
         data.info.clone(),
         data.object_ids.clone(),
@@ -28,7 +28,7 @@ fn encode(
     for s in &data.visible {
         w.push_cell(s).unwrap();
     }
-    let modes = w.mode_counts();
+    let modes = w.coding_counts();
     let (bytes, stats) = w.finish().unwrap();
     (bytes, stats, modes)
 }
@@ -41,7 +41,11 @@ fn convert_and_measure() {
         return;
     };
     let raw = std::fs::read(&v1).unwrap();
-    let data = read_v1(&raw).unwrap();
+    let mut data = read_v1(&raw).unwrap();
+    if data.info.near_field == 0.0 {
+        // Version 1 did not store it; any valid value codes the same sets.
+        data.info.near_field = citypvs::settings::DEFAULT_NEAR_FIELD;
+    }
     let n = data.object_ids.len();
     let cells = data.cells.len();
     let total: usize = data.visible.iter().map(Vec::len).sum();
