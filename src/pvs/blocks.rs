@@ -8,7 +8,7 @@
 //! models start afresh at every block, so a cell decodes from its block
 //! alone. Also the LEB128 varints of the other sections.
 
-use super::rc::{Decoder, Encoder, PROB_INIT, Prob};
+use super::rc::{BitCoder, Decoder, Encoder, PROB_INIT, PastEnd, Prob};
 
 /// Coding names for reports, index = how many references the cell used.
 pub const CODING_NAMES: [&str; 3] = ["whole", "one-reference", "two-references"];
@@ -52,12 +52,15 @@ struct Models {
     back_b: [Prob; 256],
     /// "The word differs from the first reference's", context: references'
     /// words equal (1), previous word differed (2), first reference's word
-    /// zero (4).
-    word: [Prob; 8],
+    /// zero (4), every earlier cell of the block has the first reference's
+    /// word (8).
+    word: [Prob; 16],
     /// One rank of a differing word, context: first reference's bit (1),
     /// second's (2), the cell's bit differed from the first reference at the
-    /// rank before (4), the cell's bit at the rank before (8).
-    rank: [Prob; 16],
+    /// rank before (4), the cell's bit at the rank before (8), an earlier
+    /// cell of the block has the other bit here (16), the cell had the first
+    /// reference's bit at the last rank where the references differed (32).
+    rank: [Prob; 64],
 }
 
 impl Models {
@@ -65,26 +68,104 @@ impl Models {
         Models {
             back_a: [PROB_INIT; 256],
             back_b: [PROB_INIT; 256],
-            word: [PROB_INIT; 8],
-            rank: [PROB_INIT; 16],
+            word: [PROB_INIT; 16],
+            rank: [PROB_INIT; 64],
         }
     }
 }
 
 #[inline]
-fn word_context(a: u64, b: u64, previous_differed: bool) -> usize {
-    usize::from(a == b) | (usize::from(previous_differed) << 1) | (usize::from(a == 0) << 2)
+fn word_context(a: u64, b: u64, previous_differed: bool, settled: bool) -> usize {
+    usize::from(a == b)
+        | (usize::from(previous_differed) << 1)
+        | (usize::from(a == 0) << 2)
+        | (usize::from(settled) << 3)
 }
 
-/// The bit of rank `r - 1` of `row` and of `row ^ refs`, for the first rank
-/// `r` of word `w` (both 0 for rank 0).
-#[inline]
-fn previous_bits(row: &[u64], a: &[u64], w: usize) -> (usize, usize) {
-    if w == 0 {
-        (0, 0)
-    } else {
-        let c = (row[w - 1] >> 63) as usize;
-        (c, c ^ (a[w - 1] >> 63) as usize)
+/// Code (encoder) or decode (decoder) one cell's set against its references
+/// `ra`, `rb` and the block's union and intersection so far: `row` holds the
+/// set when encoding and receives it when decoding.
+fn code_set<C: BitCoder>(
+    rc: &mut C,
+    m: &mut Models,
+    n: usize,
+    ra: &[u64],
+    rb: &[u64],
+    seen: (&[u64], &[u64]),
+    row: &mut [u64],
+) -> Result<(), PastEnd> {
+    let (union, inter) = seen;
+    let mut previous_word = false;
+    // At the last rank where the references differed, the cell had the
+    // first reference's bit (1 before any such rank).
+    let mut last_split = 1usize;
+    for i in 0..row.len() {
+        let (aw, bw, cw) = (ra[i], rb[i], row[i]);
+        let (uw, iw) = (union[i], inter[i]);
+        let wctx = word_context(aw, bw, previous_word, uw == aw && iw == aw);
+        let differs = rc.code(&mut m.word[wctx], u32::from(cw != aw))? == 1;
+        previous_word = differs;
+        if !differs {
+            row[i] = aw;
+            if aw != bw {
+                last_split = 1;
+            }
+            continue;
+        }
+        // The cell's bit and its difference from `ra` at the rank before.
+        let (mut pc, mut pd) = if i == 0 {
+            (0, 0)
+        } else {
+            (
+                (row[i - 1] >> 63) as usize,
+                ((row[i - 1] ^ ra[i - 1]) >> 63) as usize,
+            )
+        };
+        let mut out = 0u64;
+        for j in 0..WORD.min(n - i * WORD) {
+            let (x, y) = (((aw >> j) & 1) as usize, ((bw >> j) & 1) as usize);
+            // Has an earlier cell of the block the other bit at this rank?
+            let e = if x == 0 { (uw >> j) & 1 } else { !(iw >> j) & 1 } as usize;
+            let ctx = x | y << 1 | pd << 2 | pc << 3 | e << 4 | last_split << 5;
+            let c = rc.code(&mut m.rank[ctx], ((cw >> j) & 1) as u32)? as usize;
+            out |= (c as u64) << j;
+            if x != y {
+                last_split = usize::from(c == x);
+            }
+            pd = c ^ x;
+            pc = c;
+        }
+        row[i] = out;
+    }
+    Ok(())
+}
+
+/// The union and the intersection of the block's sets so far (the
+/// intersection starts as every rank below `n`).
+struct Seen {
+    union: Vec<u64>,
+    inter: Vec<u64>,
+}
+
+impl Seen {
+    fn new(n: usize) -> Self {
+        let mut inter = vec![u64::MAX; n.div_ceil(WORD)];
+        if !n.is_multiple_of(WORD) {
+            inter[n / WORD] = (1u64 << (n % WORD)) - 1;
+        }
+        Seen {
+            union: vec![0; inter.len()],
+            inter,
+        }
+    }
+    fn get(&self) -> (&[u64], &[u64]) {
+        (&self.union, &self.inter)
+    }
+    fn add(&mut self, row: &[u64]) {
+        for ((u, i), r) in self.union.iter_mut().zip(&mut self.inter).zip(row) {
+            *u |= r;
+            *i &= r;
+        }
     }
 }
 
@@ -99,6 +180,7 @@ pub struct BlockEncoder {
     models: Models,
     rc: Encoder,
     zero: Vec<u64>,
+    seen: Seen,
 }
 
 impl BlockEncoder {
@@ -113,6 +195,7 @@ impl BlockEncoder {
             models: Models::new(),
             rc: Encoder::new(),
             zero: vec![0; words],
+            seen: Seen::new(n as usize),
         }
     }
 
@@ -177,43 +260,24 @@ impl BlockEncoder {
         }
         let m = &mut self.models;
         if k >= 1 {
-            self.rc.tree(&mut m.back_a, 8, a as u32);
+            let _ = self.rc.code_tree(&mut m.back_a, 8, a as u32);
             if a > 0 && k >= 2 {
-                self.rc.tree(&mut m.back_b, 8, b as u32);
+                let _ = self.rc.code_tree(&mut m.back_b, 8, b as u32);
             }
         }
+        let (done, row) = self.rows.split_at_mut(at);
         let ra: &[u64] = if a > 0 {
-            &self.rows[(k - a) * w..(k - a + 1) * w]
+            &done[(k - a) * w..(k - a + 1) * w]
         } else {
             &self.zero
         };
         let rb: &[u64] = if b > 0 {
-            &self.rows[(k - b) * w..(k - b + 1) * w]
+            &done[(k - b) * w..(k - b + 1) * w]
         } else {
             ra
         };
-        let cur = &self.rows[at..at + w];
-        let mut previous_differed = false;
-        for i in 0..w {
-            let (aw, bw, cw) = (ra[i], rb[i], cur[i]);
-            let differs = cw != aw;
-            self.rc.bit(
-                &mut m.word[word_context(aw, bw, previous_differed)],
-                u32::from(differs),
-            );
-            previous_differed = differs;
-            if !differs {
-                continue;
-            }
-            let (mut pc, mut pd) = previous_bits(cur, ra, i);
-            for j in 0..WORD.min(self.n - i * WORD) {
-                let (x, y, c) = ((aw >> j) & 1, (bw >> j) & 1, ((cw >> j) & 1) as usize);
-                let ctx = x as usize | (y as usize) << 1 | pd << 2 | pc << 3;
-                self.rc.bit(&mut m.rank[ctx], c as u32);
-                pd = c ^ x as usize;
-                pc = c;
-            }
-        }
+        let _ = code_set(&mut self.rc, m, self.n, ra, rb, self.seen.get(), row);
+        self.seen.add(row);
         self.cells += 1;
         u8::from(a > 0) + u8::from(b > 0)
     }
@@ -223,6 +287,7 @@ impl BlockEncoder {
         self.cells = 0;
         self.rows.clear();
         self.models = Models::new();
+        self.seen = Seen::new(self.n);
         std::mem::take(&mut self.rc).finish()
     }
 }
@@ -241,9 +306,10 @@ pub struct BlockDecoder<'a> {
     models: Models,
     rc: Decoder<'a>,
     zero: Vec<u64>,
+    seen: Seen,
 }
 
-fn past_end(_: super::rc::PastEnd) -> String {
+fn past_end(_: PastEnd) -> String {
     "the block's coding runs past the end of the block".into()
 }
 
@@ -259,6 +325,7 @@ impl<'a> BlockDecoder<'a> {
             models: Models::new(),
             rc: Decoder::new(bytes)?,
             zero: vec![0; words],
+            seen: Seen::new(n as usize),
         })
     }
 
@@ -305,31 +372,8 @@ impl<'a> BlockDecoder<'a> {
         } else {
             ra
         };
-        let mut previous_differed = false;
-        for i in 0..w {
-            let (aw, bw) = (ra[i], rb[i]);
-            let differs = self
-                .rc
-                .bit(&mut m.word[word_context(aw, bw, previous_differed)])
-                .map_err(past_end)?
-                == 1;
-            previous_differed = differs;
-            if !differs {
-                row[i] = aw;
-                continue;
-            }
-            let (mut pc, mut pd) = previous_bits(row, ra, i);
-            let mut cw = 0u64;
-            for j in 0..WORD.min(self.n - i * WORD) {
-                let (x, y) = ((aw >> j) & 1, (bw >> j) & 1);
-                let ctx = x as usize | (y as usize) << 1 | pd << 2 | pc << 3;
-                let c = self.rc.bit(&mut m.rank[ctx]).map_err(past_end)? as usize;
-                cw |= (c as u64) << j;
-                pd = c ^ x as usize;
-                pc = c;
-            }
-            row[i] = cw;
-        }
+        code_set(&mut self.rc, m, self.n, ra, rb, self.seen.get(), row).map_err(past_end)?;
+        self.seen.add(row);
         set.clear();
         for (i, &word) in row.iter().enumerate() {
             let mut word = word;

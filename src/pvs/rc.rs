@@ -16,6 +16,7 @@ const TOP: u32 = 1 << 24;
 /// An adaptive probability of a 0 bit.
 pub type Prob = u16;
 
+#[inline]
 fn update(p: &mut Prob, bit: u32) {
     if bit == 0 {
         *p += (((1u32 << PROB_BITS) - u32::from(*p)) >> MOVE_BITS) as u16;
@@ -252,6 +253,36 @@ impl<'a> Decoder<'a> {
             1..=64 => Some((1u64 << (len - 1)) | self.plain(len - 1)?),
             _ => None,
         })
+    }
+}
+
+/// One side of the coder, so that a coding is written once for both: the
+/// encoder codes `bit` and returns it, the decoder ignores it and returns
+/// the bit it decodes.
+pub trait BitCoder {
+    fn code(&mut self, p: &mut Prob, bit: u32) -> Result<u32, PastEnd>;
+    fn code_tree(&mut self, probs: &mut [Prob], bits: u32, value: u32) -> Result<u32, PastEnd> {
+        let mut m = 1usize;
+        for k in (0..bits).rev() {
+            let b = self.code(&mut probs[m], (value >> k) & 1)?;
+            m = 2 * m + b as usize;
+        }
+        Ok((m - (1 << bits)) as u32)
+    }
+}
+
+impl BitCoder for Encoder {
+    #[inline]
+    fn code(&mut self, p: &mut Prob, bit: u32) -> Result<u32, PastEnd> {
+        self.bit(p, bit);
+        Ok(bit)
+    }
+}
+
+impl BitCoder for Decoder<'_> {
+    #[inline]
+    fn code(&mut self, p: &mut Prob, _: u32) -> Result<u32, PastEnd> {
+        self.bit(p)
     }
 }
 
