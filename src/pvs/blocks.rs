@@ -125,7 +125,11 @@ fn code_set<C: BitCoder>(
         for j in 0..WORD.min(n - i * WORD) {
             let (x, y) = (((aw >> j) & 1) as usize, ((bw >> j) & 1) as usize);
             // Has an earlier cell of the block the other bit at this rank?
-            let e = if x == 0 { (uw >> j) & 1 } else { !(iw >> j) & 1 } as usize;
+            let e = if x == 0 {
+                (uw >> j) & 1
+            } else {
+                !(iw >> j) & 1
+            } as usize;
             let ctx = x | y << 1 | pd << 2 | pc << 3 | e << 4 | last_split << 5;
             let c = rc.code(&mut m.rank[ctx], ((cw >> j) & 1) as u32)? as usize;
             out |= (c as u64) << j;

@@ -39,7 +39,9 @@ pub fn index_mesh(cells: &[[DVec2; 3]]) -> (Vec<DVec2>, Vec<[u32; 3]>) {
         .map(|tri| {
             tri.map(|p| {
                 let next = vertices.len() as u32;
-                let v = *vertex_of.entry((p.x.to_bits(), p.y.to_bits())).or_insert(next);
+                let v = *vertex_of
+                    .entry((p.x.to_bits(), p.y.to_bits()))
+                    .or_insert(next);
                 if v == next {
                     vertices.push(p);
                 }
@@ -148,7 +150,11 @@ pub fn decode_vertices(bytes: &[u8], count: u32) -> Result<Vec<DVec2>, String> {
 /// Decode the corners of `cells` cells over `vertex_count` vertices (the
 /// caller has checked `cells` against the section's length); every vertex
 /// must be used.
-pub fn decode_triangles(bytes: &[u8], cells: u32, vertex_count: u32) -> Result<Vec<[u32; 3]>, String> {
+pub fn decode_triangles(
+    bytes: &[u8],
+    cells: u32,
+    vertex_count: u32,
+) -> Result<Vec<[u32; 3]>, String> {
     let past = |_| "the corners' coding runs past the end of the triangles section".to_string();
     let mut rc = Decoder::new(bytes)?;
     let mut models = TriangleModels::new();
@@ -158,7 +164,10 @@ pub fn decode_triangles(bytes: &[u8], cells: u32, vertex_count: u32) -> Result<V
         let mut tri = [0u32; 3];
         let mut previous_new = 0;
         for (k, corner) in tri.iter_mut().enumerate() {
-            let old = rc.bit(&mut models.new[2 * k + previous_new]).map_err(past)? == 1;
+            let old = rc
+                .bit(&mut models.new[2 * k + previous_new])
+                .map_err(past)?
+                == 1;
             let index = if old {
                 let back = rc
                     .number(&mut models.back[k])

@@ -479,7 +479,8 @@ fn parse(body: &[u8]) -> Result<Parsed> {
             "header claims {vertex_count} vertices for {cells} cells (at most 3 per cell)"
         )));
     }
-    let vertices = super::mesh::decode_vertices(sections[2], vertex_count).map_err(Error::format)?;
+    let vertices =
+        super::mesh::decode_vertices(sections[2], vertex_count).map_err(Error::format)?;
     let corners = super::mesh::decode_triangles(sections[3], cell_count, vertex_count)
         .map_err(Error::format)?;
 

@@ -305,7 +305,10 @@ pub fn write_v1(data: &PvsData) -> Vec<u8> {
         u64s(&mut out, at);
     }
     out.extend_from_slice(&records);
-    for (k, v) in [objects, cells, index, records_at, at].into_iter().enumerate() {
+    for (k, v) in [objects, cells, index, records_at, at]
+        .into_iter()
+        .enumerate()
+    {
         let p = offsets_at + 8 * k;
         out[p..p + 8].copy_from_slice(&v.to_le_bytes());
     }
