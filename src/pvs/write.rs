@@ -301,13 +301,12 @@ impl PvsWriter {
 }
 
 /// A representative point per object when the caller has none: the mean
-/// centroid of the cells that see it (objects seen by no cell go to the
-/// origin). Neighbouring objects are seen from neighbouring cells, so this
-/// numbers objects spatially enough for the coding.
+/// centroid of the cells that see it, near the object (objects seen by no
+/// cell go to the origin). Neighbouring objects are seen from neighbouring
+/// cells, so this numbers objects spatially enough for the coding.
 pub fn points_from_sets(data: &PvsData) -> Vec<DVec2> {
-    let mut sets = data.visible.iter();
     points_of_sets(data.object_ids.len(), &data.cells, &mut |f| {
-        sets.try_for_each(|s| f(s))
+        data.visible.iter().try_for_each(|s| f(s))
     })
     .expect("the sets of a PvsData are in memory")
 }
@@ -316,29 +315,42 @@ pub fn points_from_sets(data: &PvsData) -> Vec<DVec2> {
 /// callback (so a caller can stream them from a compact store).
 pub type EachSet<'a> = dyn FnMut(&mut dyn FnMut(&[u32]) -> Result<()>) -> Result<()> + 'a;
 
-/// [`points_from_sets`] over sets handed out one at a time.
+/// [`points_from_sets`] over sets handed out one at a time (twice: the
+/// mean centre and spread of the cells that see each object, then the mean
+/// of those cells within that spread of the first mean, which stays near
+/// the object rather than drifting along its long sight lines).
 fn points_of_sets(objects: usize, cells: &[[DVec2; 3]], each: &mut EachSet) -> Result<Vec<DVec2>> {
+    let centres: Vec<DVec2> = cells.iter().map(|t| (t[0] + t[1] + t[2]) / 3.0).collect();
     let mut sum = vec![DVec2::ZERO; objects];
+    let mut square = vec![0.0f64; objects];
     let mut count = vec![0u32; objects];
-    let mut cell = 0;
-    each(&mut |set| {
-        let Some(tri) = cells.get(cell) else {
-            return Err(Error::format(format!(
-                "more visible sets than the {} cells",
-                cells.len()
-            )));
-        };
-        cell += 1;
-        let centre = (tri[0] + tri[1] + tri[2]) / 3.0;
-        for &i in set {
-            if let (Some(s), Some(k)) = (sum.get_mut(i as usize), count.get_mut(i as usize)) {
-                *s += centre;
-                *k += 1;
+    let mut pass = |sum: &mut [DVec2],
+                    square: &mut [f64],
+                    count: &mut [u32],
+                    keep: &dyn Fn(usize, DVec2) -> bool|
+     -> Result<()> {
+        let mut cell = 0;
+        each(&mut |set| {
+            let Some(&centre) = centres.get(cell) else {
+                return Err(Error::format(format!(
+                    "more visible sets than the {} cells",
+                    cells.len()
+                )));
+            };
+            cell += 1;
+            for &i in set {
+                let i = i as usize;
+                if i < objects && keep(i, centre) {
+                    sum[i] += centre;
+                    square[i] += centre.length_squared();
+                    count[i] += 1;
+                }
             }
-        }
-        Ok(())
-    })?;
-    Ok(sum
+            Ok(())
+        })
+    };
+    pass(&mut sum, &mut square, &mut count, &|_, _| true)?;
+    let mean: Vec<DVec2> = sum
         .iter()
         .zip(&count)
         .map(|(s, &k)| {
@@ -348,10 +360,35 @@ fn points_of_sets(objects: usize, cells: &[[DVec2; 3]], each: &mut EachSet) -> R
                 DVec2::ZERO
             }
         })
+        .collect();
+    // Squared spread: mean squared distance of the cells from the mean.
+    let spread: Vec<f64> = (0..objects)
+        .map(|i| {
+            if count[i] > 0 {
+                (square[i] / f64::from(count[i]) - mean[i].length_squared()).max(0.0)
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let mut sum2 = vec![DVec2::ZERO; objects];
+    let mut square2 = vec![0.0f64; objects];
+    let mut count2 = vec![0u32; objects];
+    pass(&mut sum2, &mut square2, &mut count2, &|i, c| {
+        c.distance_squared(mean[i]) <= spread[i]
+    })?;
+    Ok((0..objects)
+        .map(|i| {
+            if count2[i] > 0 {
+                sum2[i] / f64::from(count2[i])
+            } else {
+                mean[i]
+            }
+        })
         .collect())
 }
 
-/// Write a file whose sets are handed out twice by `each` (once to number
+/// Write a file whose sets are handed out three times by `each` (once to number
 /// the objects, once to code them), never all held at once: the same bytes
 /// as [`write_pvs`] of the same data.
 pub fn write_streamed(
