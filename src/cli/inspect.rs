@@ -10,7 +10,7 @@ use clap::Args;
 use serde::Serialize;
 
 use crate::input::Frame;
-use crate::pvs::blocks::MODE_NAMES;
+use crate::pvs::blocks::CODING_NAMES;
 use crate::pvs::codec::zero_rle_len;
 use crate::pvs::{FORMAT_VERSION, PvsReader};
 use crate::{Error, Result};
@@ -127,12 +127,12 @@ fn stats(reader: &PvsReader) -> Result<StatsJson> {
     let cells = reader.cell_count();
     let n = reader.object_ids().len();
     let (mut total, mut max, mut quake) = (0usize, 0usize, 0u64);
-    let mut modes = [0u64; 4];
+    let mut modes = [0u64; 3];
     reader.for_each_visible_mode(|_, set, mode| {
         total += set.len();
         max = max.max(set.len());
         quake += zero_rle_len(set, n);
-        modes[mode as usize & 3] += 1;
+        modes[(mode as usize).min(2)] += 1;
         Ok(())
     })?;
     let raw = (cells * n.div_ceil(8)) as u64;
@@ -151,7 +151,7 @@ fn stats(reader: &PvsReader) -> Result<StatsJson> {
         raw_bitset_bytes: raw,
         quake_rle_bytes: quake,
         compression_vs_raw: ratio(raw as f64, records as f64),
-        record_codings: MODE_NAMES.iter().copied().zip(modes).collect(),
+        record_codings: CODING_NAMES.iter().copied().zip(modes).collect(),
     })
 }
 

@@ -1,21 +1,23 @@
 //! The coding of the visible sets inside a block (docs/FORMAT.md, "Blocks"):
-//! each cell is one head varint (item count and mode) and a list of object
-//! ranks, either the cell's whole set or its symmetric difference from the
-//! previous cell of the block, as gaps or as runs. Decoding checks every
-//! count against the bytes left before it expands anything.
+//! one range-coded stream per block. Each cell names up to two earlier cells
+//! of its block as references; its set is coded word by word (64 ranks),
+//! a word equal to the first reference's costing one well-predicted flag,
+//! and the ranks of the other words coded one binary decision each, in the
+//! context of the two references' bits at that rank and the cell's own bit
+//! (and its difference from the first reference) at the rank before. The
+//! models start afresh at every block, so a cell decodes from its block
+//! alone. Also the LEB128 varints of the other sections.
 
-use super::codec::write_leb128;
+use super::rc::{BitCoder, Decoder, Encoder, PROB_INIT, PastEnd, Prob};
 
-/// The list is the cell's set, as gap varints.
-pub const MODE_SET_GAPS: u8 = 0;
-/// The list is the difference from the previous cell's set, as gap varints.
-pub const MODE_DIFF_GAPS: u8 = 1;
-/// The list is the cell's set, as runs.
-pub const MODE_SET_RUNS: u8 = 2;
-/// The list is the difference from the previous cell's set, as runs.
-pub const MODE_DIFF_RUNS: u8 = 3;
-/// Names of the modes, index = mode.
-pub const MODE_NAMES: [&str; 4] = ["set-gaps", "diff-gaps", "set-runs", "diff-runs"];
+/// Coding names for reports, index = how many references the cell used.
+pub const CODING_NAMES: [&str; 3] = ["whole", "one-reference", "two-references"];
+
+/// Ranks per word of a set's bitset.
+const WORD: usize = 64;
+/// What a cell difference at one rank costs in the writer's choice of the
+/// second reference, against 1 for a rank where the references disagree.
+const MISS_COST: u32 = 6;
 
 /// Bytes of `v` as a LEB128 varint.
 pub fn varint_len(v: u64) -> usize {
@@ -27,7 +29,7 @@ pub fn read_varint(bytes: &[u8], pos: &mut usize) -> Result<u64, String> {
     let mut value: u64 = 0;
     for i in 0..10 {
         let Some(&byte) = bytes.get(*pos) else {
-            return Err("varint runs past the end of the block".into());
+            return Err("varint runs past the end of the section".into());
         };
         *pos += 1;
         let bits = u64::from(byte & 0x7f);
@@ -42,268 +44,356 @@ pub fn read_varint(bytes: &[u8], pos: &mut usize) -> Result<u64, String> {
     Err("varint longer than 10 bytes".into())
 }
 
-/// The symmetric difference of two ascending lists, ascending, into `out`.
-pub fn symmetric_difference(a: &[u32], b: &[u32], out: &mut Vec<u32>) {
-    out.clear();
-    let (mut i, mut j) = (0, 0);
-    while i < a.len() && j < b.len() {
-        match a[i].cmp(&b[j]) {
-            std::cmp::Ordering::Less => {
-                out.push(a[i]);
-                i += 1;
-            }
-            std::cmp::Ordering::Greater => {
-                out.push(b[j]);
-                j += 1;
-            }
-            std::cmp::Ordering::Equal => {
-                i += 1;
-                j += 1;
-            }
+/// The adaptive probabilities of one block (docs/FORMAT.md, "Blocks").
+#[derive(Clone)]
+struct Models {
+    /// Bit trees (8 bits) of the first and the second reference.
+    back_a: [Prob; 256],
+    back_b: [Prob; 256],
+    /// "The word differs from the first reference's", context: references'
+    /// words equal (1), previous word differed (2), first reference's word
+    /// zero (4), every earlier cell of the block has the first reference's
+    /// word (8).
+    word: [Prob; 16],
+    /// One rank of a differing word, context: first reference's bit (1),
+    /// second's (2), the cell's bit differed from the first reference at the
+    /// rank before (4), the cell's bit at the rank before (8), an earlier
+    /// cell of the block has the other bit here (16), the cell had the first
+    /// reference's bit at the last rank where the references differed (32).
+    rank: [Prob; 64],
+}
+
+impl Models {
+    fn new() -> Self {
+        Models {
+            back_a: [PROB_INIT; 256],
+            back_b: [PROB_INIT; 256],
+            word: [PROB_INIT; 16],
+            rank: [PROB_INIT; 64],
         }
     }
-    out.extend_from_slice(&a[i..]);
-    out.extend_from_slice(&b[j..]);
 }
 
-/// Item count and byte length of `list` as gaps.
-fn gaps_size(list: &[u32]) -> (u64, usize) {
-    let mut next = 0u64;
-    let mut bytes = 0;
-    for &i in list {
-        bytes += varint_len(u64::from(i) - next);
-        next = u64::from(i) + 1;
-    }
-    (list.len() as u64, bytes)
+#[inline]
+fn word_context(a: u64, b: u64, previous_differed: bool, settled: bool) -> usize {
+    usize::from(a == b)
+        | (usize::from(previous_differed) << 1)
+        | (usize::from(a == 0) << 2)
+        | (usize::from(settled) << 3)
 }
 
-/// Call `f(start, last)` for each maximal run of consecutive values.
-fn for_runs(list: &[u32], mut f: impl FnMut(u32, u32)) {
-    let mut k = 0;
-    while k < list.len() {
-        let mut end = k + 1;
-        while end < list.len() && list[end] == list[end - 1] + 1 {
-            end += 1;
+/// Code (encoder) or decode (decoder) one cell's set against its references
+/// `ra`, `rb` and the block's union and intersection so far: `row` holds the
+/// set when encoding and receives it when decoding.
+fn code_set<C: BitCoder>(
+    rc: &mut C,
+    m: &mut Models,
+    n: usize,
+    ra: &[u64],
+    rb: &[u64],
+    seen: (&[u64], &[u64]),
+    row: &mut [u64],
+) -> Result<(), PastEnd> {
+    let (union, inter) = seen;
+    let mut previous_word = false;
+    // At the last rank where the references differed, the cell had the
+    // first reference's bit (1 before any such rank).
+    let mut last_split = 1usize;
+    for i in 0..row.len() {
+        let (aw, bw, cw) = (ra[i], rb[i], row[i]);
+        let (uw, iw) = (union[i], inter[i]);
+        let wctx = word_context(aw, bw, previous_word, uw == aw && iw == aw);
+        let differs = rc.code(&mut m.word[wctx], u32::from(cw != aw))? == 1;
+        previous_word = differs;
+        if !differs {
+            row[i] = aw;
+            if aw != bw {
+                last_split = 1;
+            }
+            continue;
         }
-        f(list[k], list[end - 1]);
-        k = end;
-    }
-}
-
-/// Item count (runs) and byte length of `list` as runs.
-fn runs_size(list: &[u32]) -> (u64, usize) {
-    let (mut count, mut bytes, mut next) = (0u64, 0usize, 0u64);
-    for_runs(list, |start, last| {
-        count += 1;
-        bytes += varint_len(u64::from(start) - next) + varint_len(u64::from(last - start));
-        next = u64::from(last) + 2;
-    });
-    (count, bytes)
-}
-
-fn put_gaps(out: &mut Vec<u8>, list: &[u32]) {
-    let mut next = 0u64;
-    for &i in list {
-        write_leb128(out, u64::from(i) - next);
-        next = u64::from(i) + 1;
-    }
-}
-
-fn put_runs(out: &mut Vec<u8>, list: &[u32]) {
-    let mut next = 0u64;
-    for_runs(list, |start, last| {
-        write_leb128(out, u64::from(start) - next);
-        write_leb128(out, u64::from(last - start));
-        next = u64::from(last) + 2;
-    });
-}
-
-/// Append the coding of `cur` (ascending ranks) given the sets of the
-/// block's earlier cells, `earlier[0]` the first; `diff` is scratch. Writes
-/// the shortest coding (the set itself, or its difference from one earlier
-/// cell, each as gaps or runs; ties: lowest mode, then nearest cell) and
-/// returns the mode.
-pub fn encode_cell(
-    earlier: &[Vec<u32>],
-    cur: &[u32],
-    diff: &mut Vec<u32>,
-    out: &mut Vec<u8>,
-) -> u8 {
-    // (bytes, mode, back) of the best coding so far.
-    let cost = |count: u64, bytes: usize, back: usize| {
-        varint_len(count << 2) + bytes + if back > 0 { varint_len(back as u64) } else { 0 }
-    };
-    let mut best = {
-        let (g, r) = (gaps_size(cur), runs_size(cur));
-        let (cg, cr) = (cost(g.0, g.1, 0), cost(r.0, r.1, 0));
-        if cr < cg {
-            (cr, MODE_SET_RUNS, 0)
+        // The cell's bit and its difference from `ra` at the rank before.
+        let (mut pc, mut pd) = if i == 0 {
+            (0, 0)
         } else {
-            (cg, MODE_SET_GAPS, 0)
-        }
-    };
-    for back in 1..=earlier.len() {
-        let prev = &earlier[earlier.len() - back];
-        if prev.len().abs_diff(cur.len()) + 1 >= best.0 {
-            continue; // the difference holds at least this many items
-        }
-        symmetric_difference(prev, cur, diff);
-        let (g, r) = (gaps_size(diff), runs_size(diff));
-        let (cg, cr) = (cost(g.0, g.1, back), cost(r.0, r.1, back));
-        if cg < best.0 {
-            best = (cg, MODE_DIFF_GAPS, back);
-        }
-        if cr < best.0 {
-            best = (cr, MODE_DIFF_RUNS, back);
-        }
-    }
-    let (_, mode, back) = best;
-    let list: &[u32] = if back == 0 {
-        cur
-    } else {
-        symmetric_difference(&earlier[earlier.len() - back], cur, diff);
-        diff
-    };
-    let count = if mode < 2 {
-        gaps_size(list).0
-    } else {
-        runs_size(list).0
-    };
-    write_leb128(out, (count << 2) | u64::from(mode));
-    if back > 0 {
-        write_leb128(out, back as u64);
-    }
-    if mode < 2 {
-        put_gaps(out, list);
-    } else {
-        put_runs(out, list);
-    }
-    mode
-}
-
-/// Decode one cell's coding at `bytes[*pos..]`, `earlier` cells preceding
-/// it in its block: returns the mode and how many cells back its reference
-/// is (0 = none, the list is the set itself), and leaves the list (ascending
-/// ranks below `n`) in `list`.
-pub fn decode_list(
-    bytes: &[u8],
-    pos: &mut usize,
-    n: u32,
-    earlier: usize,
-    list: &mut Vec<u32>,
-) -> Result<(u8, usize), String> {
-    let head = read_varint(bytes, pos)?;
-    let mode = (head & 3) as u8;
-    let count = head >> 2;
-    let back = if mode % 2 == 1 {
-        let back = read_varint(bytes, pos)?;
-        if back == 0 || back > earlier as u64 {
-            return Err(format!(
-                "a cell refers {back} cells back, but {earlier} cells precede it in its block"
-            ));
-        }
-        back as usize
-    } else {
-        0
-    };
-    let left = (bytes.len() - *pos) as u64;
-    let per_item = if mode < 2 { 1 } else { 2 };
-    // Every item takes at least `per_item` bytes: refuse before expanding.
-    if count > left / per_item {
-        return Err(format!(
-            "a cell claims {count} list items but only {left} bytes are left in the block"
-        ));
-    }
-    list.clear();
-    let mut next = 0u64;
-    for _ in 0..count {
-        let overflow = || format!("object rank out of range (the file has {n} objects)");
-        let start = next
-            .checked_add(read_varint(bytes, pos)?)
-            .ok_or_else(overflow)?;
-        let last = if mode < 2 {
-            start
-        } else {
-            start.saturating_add(read_varint(bytes, pos)?)
+            (
+                (row[i - 1] >> 63) as usize,
+                ((row[i - 1] ^ ra[i - 1]) >> 63) as usize,
+            )
         };
-        if last >= u64::from(n) {
-            return Err(format!(
-                "object rank {last} is out of range (the file has {n} objects)"
-            ));
+        let mut out = 0u64;
+        for j in 0..WORD.min(n - i * WORD) {
+            let (x, y) = (((aw >> j) & 1) as usize, ((bw >> j) & 1) as usize);
+            // Has an earlier cell of the block the other bit at this rank?
+            let e = if x == 0 {
+                (uw >> j) & 1
+            } else {
+                !(iw >> j) & 1
+            } as usize;
+            let ctx = x | y << 1 | pd << 2 | pc << 3 | e << 4 | last_split << 5;
+            let c = rc.code(&mut m.rank[ctx], ((cw >> j) & 1) as u32)? as usize;
+            out |= (c as u64) << j;
+            if x != y {
+                last_split = usize::from(c == x);
+            }
+            pd = c ^ x;
+            pc = c;
         }
-        list.extend(start as u32..=last as u32);
-        next = last + if mode < 2 { 1 } else { 2 };
+        row[i] = out;
     }
-    Ok((mode, back))
+    Ok(())
 }
 
-/// The sets of one block's cells as bitsets over the ranks, so that memory
-/// is bounded by cells per block x objects / 8 whatever the lists hold.
-pub struct BlockSets {
+/// The union and the intersection of the block's sets so far (the
+/// intersection starts as every rank below `n`).
+struct Seen {
+    union: Vec<u64>,
+    inter: Vec<u64>,
+}
+
+impl Seen {
+    fn new(n: usize) -> Self {
+        let mut inter = vec![u64::MAX; n.div_ceil(WORD)];
+        if !n.is_multiple_of(WORD) {
+            inter[n / WORD] = (1u64 << (n % WORD)) - 1;
+        }
+        Seen {
+            union: vec![0; inter.len()],
+            inter,
+        }
+    }
+    fn get(&self) -> (&[u64], &[u64]) {
+        (&self.union, &self.inter)
+    }
+    fn add(&mut self, row: &[u64]) {
+        for ((u, i), r) in self.union.iter_mut().zip(&mut self.inter).zip(row) {
+            *u |= r;
+            *i &= r;
+        }
+    }
+}
+
+/// Codes the cells of one block; [`BlockEncoder::push`] one set at a time,
+/// then [`BlockEncoder::finish`].
+pub struct BlockEncoder {
+    n: usize,
     words: usize,
-    bits: Vec<u64>,
+    /// Bitsets of the block's cells so far, `words` each.
+    rows: Vec<u64>,
     cells: usize,
+    models: Models,
+    rc: Encoder,
+    zero: Vec<u64>,
+    seen: Seen,
 }
 
-impl BlockSets {
+impl BlockEncoder {
+    /// An encoder for sets of ranks below `n`.
     pub fn new(n: u32) -> Self {
-        BlockSets {
-            words: (n as usize).div_ceil(64),
-            bits: Vec::new(),
+        let words = (n as usize).div_ceil(WORD);
+        BlockEncoder {
+            n: n as usize,
+            words,
+            rows: Vec::new(),
             cells: 0,
+            models: Models::new(),
+            rc: Encoder::new(),
+            zero: vec![0; words],
+            seen: Seen::new(n as usize),
         }
     }
-    /// Forget the block's cells.
-    pub fn clear(&mut self) {
-        self.cells = 0;
-    }
-    /// How many cells of the block are decoded.
+
+    /// Cells coded in the current block.
     pub fn len(&self) -> usize {
         self.cells
     }
     pub fn is_empty(&self) -> bool {
         self.cells == 0
     }
-    /// Decode the next cell of the block; its set (ascending ranks) goes to `set`.
-    pub fn decode_next(
-        &mut self,
-        bytes: &[u8],
-        pos: &mut usize,
-        n: u32,
-        list: &mut Vec<u32>,
-        set: &mut Vec<u32>,
-    ) -> Result<u8, String> {
-        let (mode, back) = decode_list(bytes, pos, n, self.cells, list)?;
-        let w = self.words;
-        let at = self.cells * w;
-        if self.bits.len() < at + w {
-            self.bits.resize(at + w, 0);
+
+    fn row(&self, k: usize) -> &[u64] {
+        &self.rows[k * self.words..(k + 1) * self.words]
+    }
+
+    /// Code the next cell's set, ascending ranks below `n` (at most 256
+    /// cells per block). Returns how many references it used.
+    pub fn push(&mut self, ranks: &[u32]) -> u8 {
+        let (w, k) = (self.words, self.cells);
+        assert!(k < 256, "at most 256 cells per block");
+        let at = k * w;
+        self.rows.resize(at + w, 0);
+        for &r in ranks {
+            self.rows[at + r as usize / WORD] |= 1 << (r as usize % WORD);
         }
-        if back == 0 {
-            self.bits[at..at + w].fill(0);
+        let cur = &self.rows[at..at + w];
+        // First reference: the earlier cell nearest in Hamming distance
+        // (ties: the nearest cell), if nearer than the empty set.
+        let mut a = 0usize;
+        let mut best = ranks.len() as u32;
+        for back in 1..=k {
+            let d = hamming(self.row(k - back), cur);
+            if d < best {
+                (a, best) = (back, d);
+            }
+        }
+        // Second reference: the one that best settles the first one's misses
+        // in the words where the first differs (ties: none, then nearest).
+        let mut b = 0usize;
+        if a > 0 && k >= 2 {
+            let ra = self.row(k - a);
+            let cost = |rb: &[u64]| -> u32 {
+                let mut c = 0;
+                for i in 0..w {
+                    let miss = ra[i] ^ cur[i];
+                    if miss != 0 {
+                        let split = ra[i] ^ rb[i];
+                        c += split.count_ones() + MISS_COST * (miss & !split).count_ones();
+                    }
+                }
+                c
+            };
+            let mut best = cost(ra);
+            for back in 1..=k {
+                if back != a {
+                    let c = cost(self.row(k - back));
+                    if c < best {
+                        (b, best) = (back, c);
+                    }
+                }
+            }
+        }
+        let m = &mut self.models;
+        if k >= 1 {
+            let _ = self.rc.code_tree(&mut m.back_a, 8, a as u32);
+            if a > 0 && k >= 2 {
+                let _ = self.rc.code_tree(&mut m.back_b, 8, b as u32);
+            }
+        }
+        let (done, row) = self.rows.split_at_mut(at);
+        let ra: &[u64] = if a > 0 {
+            &done[(k - a) * w..(k - a + 1) * w]
         } else {
-            let from = (self.cells - back) * w;
-            self.bits.copy_within(from..from + w, at);
+            &self.zero
+        };
+        let rb: &[u64] = if b > 0 {
+            &done[(k - b) * w..(k - b + 1) * w]
+        } else {
+            ra
+        };
+        let _ = code_set(&mut self.rc, m, self.n, ra, rb, self.seen.get(), row);
+        self.seen.add(row);
+        self.cells += 1;
+        u8::from(a > 0) + u8::from(b > 0)
+    }
+
+    /// The block's bytes; the encoder starts a new block.
+    pub fn finish(&mut self) -> Vec<u8> {
+        self.cells = 0;
+        self.rows.clear();
+        self.models = Models::new();
+        self.seen = Seen::new(self.n);
+        std::mem::take(&mut self.rc).finish()
+    }
+}
+
+fn hamming(a: &[u64], b: &[u64]) -> u32 {
+    a.iter().zip(b).map(|(x, y)| (x ^ y).count_ones()).sum()
+}
+
+/// Decodes the cells of one block in order. Memory: one bitset of `n` bits
+/// per cell of the block, whatever the bytes say.
+pub struct BlockDecoder<'a> {
+    n: usize,
+    words: usize,
+    rows: Vec<u64>,
+    cells: usize,
+    models: Models,
+    rc: Decoder<'a>,
+    zero: Vec<u64>,
+    seen: Seen,
+}
+
+fn past_end(_: PastEnd) -> String {
+    "the block's coding runs past the end of the block".into()
+}
+
+impl<'a> BlockDecoder<'a> {
+    /// Start decoding a block of sets of ranks below `n`.
+    pub fn new(bytes: &'a [u8], n: u32) -> Result<Self, String> {
+        let words = (n as usize).div_ceil(WORD);
+        Ok(BlockDecoder {
+            n: n as usize,
+            words,
+            rows: Vec::new(),
+            cells: 0,
+            models: Models::new(),
+            rc: Decoder::new(bytes)?,
+            zero: vec![0; words],
+            seen: Seen::new(n as usize),
+        })
+    }
+
+    /// Bytes of the block read so far.
+    pub fn pos(&self) -> usize {
+        self.rc.pos()
+    }
+
+    /// Decode the next cell (at most 256 per block): its ascending ranks go
+    /// to `set`; returns how many references it used.
+    pub fn next(&mut self, set: &mut Vec<u32>) -> Result<u8, String> {
+        let (w, k) = (self.words, self.cells);
+        if k >= 256 {
+            return Err("more than 256 cells in a block".into());
         }
-        let row = &mut self.bits[at..at + w];
-        for &r in list.iter() {
-            row[r as usize / 64] ^= 1 << (r % 64);
+        let m = &mut self.models;
+        let (mut a, mut b) = (0usize, 0usize);
+        if k >= 1 {
+            a = self.rc.tree(&mut m.back_a, 8).map_err(past_end)? as usize;
+            if a > k {
+                return Err(format!(
+                    "a cell refers {a} cells back, but {k} cells precede it in its block"
+                ));
+            }
+            if a > 0 && k >= 2 {
+                b = self.rc.tree(&mut m.back_b, 8).map_err(past_end)? as usize;
+                if b > k {
+                    return Err(format!(
+                        "a cell refers {b} cells back, but {k} cells precede it in its block"
+                    ));
+                }
+            }
         }
+        let at = k * w;
+        self.rows.resize(at + w, 0);
+        let (done, row) = self.rows.split_at_mut(at);
+        let ra: &[u64] = if a > 0 {
+            &done[(k - a) * w..(k - a + 1) * w]
+        } else {
+            &self.zero
+        };
+        let rb: &[u64] = if b > 0 {
+            &done[(k - b) * w..(k - b + 1) * w]
+        } else {
+            ra
+        };
+        code_set(&mut self.rc, m, self.n, ra, rb, self.seen.get(), row).map_err(past_end)?;
+        self.seen.add(row);
         set.clear();
-        for (k, &word) in row.iter().enumerate() {
+        for (i, &word) in row.iter().enumerate() {
             let mut word = word;
             while word != 0 {
-                set.push((k * 64) as u32 + word.trailing_zeros());
+                set.push((i * WORD) as u32 + word.trailing_zeros());
                 word &= word - 1;
             }
         }
         self.cells += 1;
-        Ok(mode)
+        Ok(u8::from(a > 0) + u8::from(b > 0))
     }
 }
 
 #[cfg(test)]
 mod tests {
+    use super::super::codec::write_leb128;
     use super::*;
     use proptest::prelude::*;
 
@@ -338,55 +428,70 @@ mod tests {
     }
 
     #[test]
-    fn known_bytes() {
-        // {1, 2, 3, 10} after {1, 2, 3}: difference {10} as gaps: head 1<<2|1, gap 10.
-        let mut out = Vec::new();
-        let mut diff = Vec::new();
-        assert_eq!(
-            encode_cell(&[vec![1, 2, 3]], &[1, 2, 3, 10], &mut diff, &mut out),
-            MODE_DIFF_GAPS
-        );
-        assert_eq!(out, [0x05, 1, 10]);
-        // {1, 2, 3} from nothing: one run as (gap 1, length-1 2), head 1<<2|2.
-        out.clear();
-        assert_eq!(
-            encode_cell(&[], &[1, 2, 3], &mut diff, &mut out),
-            MODE_SET_RUNS
-        );
-        assert_eq!(out, [0x06, 1, 2]);
+    fn references_are_chosen_and_identical_sets_cost_little() {
+        let mut e = BlockEncoder::new(300);
+        let base: Vec<u32> = (0..300).filter(|r| r % 3 == 0).collect();
+        assert_eq!(e.push(&base), 0);
+        let mut other = base.clone();
+        other.push(299);
+        assert_eq!(e.push(&other), 1);
+        let one = e.rc.len();
+        for _ in 0..100 {
+            e.push(&base);
+        }
+        let bytes = e.finish();
+        // A hundred copies of an earlier set: well under a byte each.
+        assert!(bytes.len() < one + 5 + 60, "{} bytes", bytes.len());
+        let mut d = BlockDecoder::new(&bytes, 300).unwrap();
+        let mut set = Vec::new();
+        d.next(&mut set).unwrap();
+        assert_eq!(set, base);
+        d.next(&mut set).unwrap();
+        assert_eq!(set, other);
+        for _ in 0..100 {
+            d.next(&mut set).unwrap();
+            assert_eq!(set, base);
+        }
+        assert_eq!(d.pos(), bytes.len());
     }
 
     proptest! {
         #[test]
-        fn cells_round_trip(n in 1u32..3000, cells in proptest::collection::vec(proptest::collection::vec(any::<u32>(), 0..200), 1..8)) {
+        fn cells_round_trip(n in 1u32..3000, cells in proptest::collection::vec(proptest::collection::vec(any::<u32>(), 0..200), 1..12)) {
             let sets: Vec<Vec<u32>> = cells.iter().map(|c| {
                 let mut s: Vec<u32> = c.iter().map(|v| v % n).collect();
                 s.sort_unstable();
                 s.dedup();
                 s
             }).collect();
-            let mut out = Vec::new();
-            let mut diff = Vec::new();
-            for k in 0..sets.len() {
-                encode_cell(&sets[..k], &sets[k], &mut diff, &mut out);
+            let mut e = BlockEncoder::new(n);
+            for round in 0..2 {
+                for s in &sets {
+                    e.push(s);
+                }
+                let bytes = e.finish();
+                let mut d = BlockDecoder::new(&bytes, n).unwrap();
+                let mut set = Vec::new();
+                for s in &sets {
+                    d.next(&mut set).unwrap();
+                    prop_assert_eq!(&set, s, "round {}", round);
+                }
+                prop_assert_eq!(d.pos(), bytes.len());
             }
-            let (mut pos, mut block, mut a, mut set) = (0, BlockSets::new(n), Vec::new(), Vec::new());
-            for s in &sets {
-                block.decode_next(&out, &mut pos, n, &mut a, &mut set).unwrap();
-                prop_assert_eq!(&set, s);
-            }
-            prop_assert_eq!(pos, out.len());
         }
 
         #[test]
-        fn arbitrary_bytes_never_panic(n in 0u32..100, bytes in proptest::collection::vec(any::<u8>(), 0..60)) {
-            let (mut pos, mut block, mut a, mut set) = (0, BlockSets::new(n), Vec::new(), Vec::new());
-            while pos < bytes.len() && block.len() < 64 {
-                if block.decode_next(&bytes, &mut pos, n, &mut a, &mut set).is_err() {
-                    break;
+        fn arbitrary_bytes_never_panic(n in 0u32..300, bytes in proptest::collection::vec(any::<u8>(), 0..60)) {
+            if let Ok(mut d) = BlockDecoder::new(&bytes, n) {
+                let mut set = Vec::new();
+                for _ in 0..300 {
+                    if d.next(&mut set).is_err() {
+                        break;
+                    }
+                    prop_assert!(set.windows(2).all(|w| w[0] < w[1]));
+                    prop_assert!(set.iter().all(|&i| i < n));
+                    prop_assert!(d.pos() <= bytes.len());
                 }
-                prop_assert!(set.windows(2).all(|w| w[0] < w[1]));
-                prop_assert!(set.iter().all(|&i| i < n));
             }
         }
     }

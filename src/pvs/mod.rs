@@ -2,8 +2,9 @@
 //! visible sets in small blocks of cells, a streaming writer, and a reader
 //! that decodes any one cell's set by reading at most one block.
 //!
-//! Submodules: [`codec`] (varints, set codings and the Quake/bitset
-//! measurements), [`write`] ([`PvsWriter`], [`encode_pvs`], [`write_pvs`]),
+//! Submodules: [`rc`] (the range coder), [`blocks`] (the sets' coding in
+//! blocks), [`mesh`] (vertices and corners), [`codec`] (varints and the
+//! version 1 record codings and the Quake/bitset measurements), [`write`] ([`PvsWriter`], [`encode_pvs`], [`write_pvs`]),
 //! [`read`] ([`PvsReader`]: validating and decoding), `grid` (point lookup),
 //! and `v1` (a reader of the old version 1 layout, kept only so measurements
 //! can convert old files; [`PvsReader`] refuses version 1).
@@ -11,6 +12,8 @@
 pub mod blocks;
 pub mod codec;
 mod grid;
+pub mod mesh;
+pub mod rc;
 pub use grid::triangle_contains;
 mod read;
 #[doc(hidden)]

@@ -10,7 +10,7 @@ use std::path::Path;
 use glam::DVec2;
 use sha2::{Digest, Sha256};
 
-use super::blocks::{BlockSets, read_varint};
+use super::blocks::{BlockDecoder, read_varint};
 use super::grid::CellGrid;
 use super::{BakeInfo, FORMAT_VERSION, HEADER_BYTES, MAGIC, MAX_BLOCK_CELLS, SECTION_NAMES};
 use crate::frame::Frame;
@@ -248,32 +248,31 @@ impl PvsReader {
         }
     }
     /// Decode the cells of block `b` up to and including `last` (index in
-    /// the block), calling `f(cell, ranks, mode)` for each; `state` is
-    /// reused between blocks.
+    /// the block), calling `f(cell, ranks, references)` for each.
     fn decode_block(
         &self,
         b: usize,
         last: usize,
-        state: &mut BlockSets,
         mut f: impl FnMut(usize, &[u32], u8) -> Result<()>,
     ) -> Result<()> {
         let bytes = self.block(b);
         let n = self.object_ids.len() as u32;
         let first = b * self.block_cells;
-        state.clear();
-        let (mut pos, mut list, mut set) = (0, Vec::new(), Vec::new());
+        let mut state = BlockDecoder::new(bytes, n)
+            .map_err(|e| Error::format(format!("visible set of cell {first}: {e}")))?;
+        let mut set = Vec::new();
         for k in 0..=last {
             let cell = first + k;
-            let mode = state
-                .decode_next(bytes, &mut pos, n, &mut list, &mut set)
+            let refs = state
+                .next(&mut set)
                 .map_err(|e| Error::format(format!("visible set of cell {cell}: {e}")))?;
-            f(cell, &set, mode)?;
+            f(cell, &set, refs)?;
         }
         let whole = first + last + 1 == self.cell_count() || last + 1 == self.block_cells;
-        if whole && pos != bytes.len() {
+        if whole && state.pos() != bytes.len() {
             return Err(Error::format(format!(
                 "block {b} has {} bytes after its last cell",
-                bytes.len() - pos
+                bytes.len() - state.pos()
             )));
         }
         Ok(())
@@ -284,8 +283,7 @@ impl PvsReader {
         self.check_cell(cell)?;
         let b = cell / self.block_cells;
         let (mut out, mut marks) = (Vec::new(), Vec::new());
-        let mut state = BlockSets::new(self.object_ids.len() as u32);
-        self.decode_block(b, cell % self.block_cells, &mut state, |c, ranks, _| {
+        self.decode_block(b, cell % self.block_cells, |c, ranks, _| {
             if c == cell {
                 self.to_input(ranks, &mut marks, &mut out);
             }
@@ -306,18 +304,17 @@ impl PvsReader {
     pub fn for_each_visible(&self, mut f: impl FnMut(usize, &[u32]) -> Result<()>) -> Result<()> {
         self.for_each_visible_mode(|c, v, _| f(c, v))
     }
-    /// Like [`PvsReader::for_each_visible`], also giving each cell's coding
-    /// mode (see docs/FORMAT.md).
+    /// Like [`PvsReader::for_each_visible`], also giving how many earlier
+    /// cells each cell's coding refers to (0 to 2, see docs/FORMAT.md).
     pub fn for_each_visible_mode(
         &self,
         mut f: impl FnMut(usize, &[u32], u8) -> Result<()>,
     ) -> Result<()> {
         let (mut out, mut marks) = (Vec::new(), Vec::new());
-        let mut state = BlockSets::new(self.object_ids.len() as u32);
         let blocks = self.cell_count().div_ceil(self.block_cells);
         for b in 0..blocks {
             let last = (self.cell_count() - b * self.block_cells).min(self.block_cells) - 1;
-            self.decode_block(b, last, &mut state, |c, ranks, mode| {
+            self.decode_block(b, last, |c, ranks, mode| {
                 self.to_input(ranks, &mut marks, &mut out);
                 f(c, &out, mode)
             })?;
@@ -461,66 +458,31 @@ fn parse(body: &[u8]) -> Result<Parsed> {
     }
     o.done()?;
 
-    // Vertices: exactly 16 bytes each.
-    let mut v = Cursor::new(sections[2], "vertices");
-    if lengths[2] != 16 * u64::from(vertex_count) {
+    // Vertices and triangles: range coded, each section at least
+    // VERTEX_MIN_BYTES per vertex and CELL_MIN_BYTES per cell.
+    use super::mesh::{CELL_MIN_BYTES, VERTEX_MIN_BYTES};
+    if u64::from(vertex_count) > lengths[2] / VERTEX_MIN_BYTES {
         return Err(Error::format(format!(
-            "the vertices section is {} bytes, but {vertex_count} vertices take {}",
-            lengths[2],
-            16 * u64::from(vertex_count)
+            "header claims {vertex_count} vertices, more than the vertices section of {} bytes can hold",
+            lengths[2]
         )));
     }
-    let mut vertices = Vec::with_capacity(vertex_count as usize);
-    for k in 0..vertex_count {
-        let p = DVec2::new(v.f64("vertex")?, v.f64("vertex")?);
-        if !p.is_finite() {
-            return Err(Error::format(format!(
-                "vertex {k} has a non-finite coordinate"
-            )));
-        }
-        vertices.push(p);
-    }
-
-    // Triangles: three corner varints (at least one byte each) per cell.
     let cells = cell_count as usize;
-    let mut t = Cursor::new(sections[3], "triangles");
-    if cells > t.left() / 3 {
+    if u64::from(cell_count) > lengths[3] / CELL_MIN_BYTES {
         return Err(Error::format(format!(
             "header claims {cells} cells, more than the triangles section of {} bytes can hold",
-            t.left()
+            lengths[3]
         )));
     }
-    let mut corners = Vec::with_capacity(cells);
-    let mut next = 0u64; // vertices introduced so far
-    for c in 0..cells {
-        let mut tri = [0u32; 3];
-        for corner in &mut tri {
-            let back = t.varint("corner")?;
-            let index = if back == 0 {
-                next += 1;
-                next - 1
-            } else if back <= next {
-                next - back
-            } else {
-                return Err(Error::format(format!(
-                    "cell {c} refers to a vertex before the first"
-                )));
-            };
-            if index >= u64::from(vertex_count) {
-                return Err(Error::format(format!(
-                    "cell {c} uses vertex {index}, but there are {vertex_count}"
-                )));
-            }
-            *corner = index as u32;
-        }
-        corners.push(tri);
-    }
-    t.done()?;
-    if next != u64::from(vertex_count) {
+    if u64::from(vertex_count) > 3 * u64::from(cell_count) {
         return Err(Error::format(format!(
-            "the cells use {next} of the {vertex_count} vertices"
+            "header claims {vertex_count} vertices for {cells} cells (at most 3 per cell)"
         )));
     }
+    let vertices =
+        super::mesh::decode_vertices(sections[2], vertex_count).map_err(Error::format)?;
+    let corners = super::mesh::decode_triangles(sections[3], cell_count, vertex_count)
+        .map_err(Error::format)?;
 
     // Block index: ascending offsets from 0 to the blocks' length.
     let blocks = cells.div_ceil(block_cells as usize);

@@ -231,3 +231,90 @@ fn parse_body(c: &mut Cursor, body: usize) -> Result<Body> {
     };
     Ok((info, object_ids, cells, ranges))
 }
+
+/// Write `data` in the version 1 layout (object ids in input order, 48-byte
+/// triangles, one record per cell as [`super::codec::encode_record`] gives
+/// it): only so that measurements can set version 2 beside version 1 and
+/// general-purpose compressors of it. [`read_v1`] reads it back.
+pub fn write_v1(data: &PvsData) -> Vec<u8> {
+    fn u32s(out: &mut Vec<u8>, v: u32) {
+        out.extend_from_slice(&v.to_le_bytes());
+    }
+    fn u64s(out: &mut Vec<u8>, v: u64) {
+        out.extend_from_slice(&v.to_le_bytes());
+    }
+    fn strs(out: &mut Vec<u8>, s: &str) {
+        u32s(out, s.len() as u32);
+        out.extend_from_slice(s.as_bytes());
+    }
+    let info = &data.info;
+    let mut out = Vec::new();
+    out.extend_from_slice(&MAGIC);
+    u32s(&mut out, 1);
+    u32s(&mut out, 0);
+    u64s(&mut out, 0); // file length, patched below
+    for v in [
+        info.eps,
+        info.eye_height,
+        info.pixel,
+        info.max_cell_edge,
+        info.margin,
+    ] {
+        out.extend_from_slice(&v.to_le_bytes());
+    }
+    let (kind, crs, x, y) = match &info.frame {
+        Frame::LonLat { lon0, lat0 } => (0, None, *lon0, *lat0),
+        Frame::Metric { origin, crs } => (1, crs.as_deref(), origin.x, origin.y),
+    };
+    u32s(&mut out, kind);
+    u32s(&mut out, u32::from(crs.is_some()));
+    out.extend_from_slice(&x.to_le_bytes());
+    out.extend_from_slice(&y.to_le_bytes());
+    out.extend_from_slice(&info.source_hash);
+    u32s(&mut out, data.object_ids.len() as u32);
+    u32s(&mut out, data.cells.len() as u32);
+    let offsets_at = out.len();
+    out.resize(V1_HEADER_BYTES, 0);
+    strs(&mut out, &info.tool_version);
+    if let Some(crs) = crs {
+        strs(&mut out, crs);
+    }
+    let objects = out.len() as u64;
+    for id in &data.object_ids {
+        strs(&mut out, id);
+    }
+    while !out.len().is_multiple_of(8) {
+        out.push(0);
+    }
+    let cells = out.len() as u64;
+    for tri in &data.cells {
+        for p in tri {
+            out.extend_from_slice(&p.x.to_le_bytes());
+            out.extend_from_slice(&p.y.to_le_bytes());
+        }
+    }
+    let index = out.len() as u64;
+    let records_at = index + 8 * (data.cells.len() as u64 + 1);
+    let mut records = Vec::new();
+    let mut at = 0u64;
+    u64s(&mut out, 0);
+    for set in &data.visible {
+        let r = super::codec::encode_record(set, data.object_ids.len());
+        at += r.len() as u64;
+        records.extend_from_slice(&r);
+        u64s(&mut out, at);
+    }
+    out.extend_from_slice(&records);
+    for (k, v) in [objects, cells, index, records_at, at]
+        .into_iter()
+        .enumerate()
+    {
+        let p = offsets_at + 8 * k;
+        out[p..p + 8].copy_from_slice(&v.to_le_bytes());
+    }
+    let len = out.len() as u64 + 32;
+    out[16..24].copy_from_slice(&len.to_le_bytes());
+    let digest = Sha256::digest(&out);
+    out.extend_from_slice(&digest);
+    out
+}

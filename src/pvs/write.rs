@@ -4,13 +4,12 @@
 //! and the block being filled. [`encode_pvs`] and [`write_pvs`] write a whole
 //! [`PvsData`] through it.
 
-use std::collections::HashMap;
 use std::path::Path;
 
 use glam::DVec2;
 use sha2::{Digest, Sha256};
 
-use super::blocks::encode_cell;
+use super::blocks::BlockEncoder;
 use super::codec::{bitset_len, write_leb128, zero_rle_len};
 use super::{BLOCK_CELLS, BakeInfo, FORMAT_VERSION, HEADER_BYTES, MAGIC, PvsData, WriteStats};
 use crate::frame::Frame;
@@ -29,13 +28,10 @@ pub struct PvsWriter {
     index_at: usize,
     blocks_at: usize,
     pushed: usize,
-    block: Vec<u8>,
-    /// The sets (ranks) of the block's cells so far.
-    earlier: Vec<Vec<u32>>,
+    block: BlockEncoder,
     cur: Vec<u32>,
-    diff: Vec<u32>,
     stats: WriteStats,
-    mode_counts: [u64; 4],
+    coding_counts: [u64; 3],
 }
 
 fn put_u32(out: &mut Vec<u8>, v: u32) {
@@ -139,25 +135,12 @@ impl PvsWriter {
             rank_of[i as usize] = r as u32;
         }
 
-        // Vertex table in order of first use; corners as back-references.
-        let mut vertex_of: HashMap<(u64, u64), u32> = HashMap::new();
-        let mut vertices = Vec::new();
-        let mut triangles = Vec::new();
-        for tri in &cells {
-            for p in tri {
-                let key = (p.x.to_bits(), p.y.to_bits());
-                let next = vertices.len() as u32;
-                let v = *vertex_of.entry(key).or_insert(next);
-                if v == next {
-                    vertices.push(*p);
-                    write_leb128(&mut triangles, 0);
-                } else {
-                    write_leb128(&mut triangles, u64::from(next - v));
-                }
-            }
-        }
+        // Vertices in order of first use, corners as back-references.
+        let (vertices, corners) = super::mesh::index_mesh(&cells);
         let vertex_count = u32::try_from(vertices.len())
             .map_err(|_| Error::format("more than 2^32 - 1 vertices"))?;
+        let vertex_bytes = super::mesh::encode_vertices(&vertices);
+        let triangles = super::mesh::encode_triangles(&corners);
 
         let mut strings = Vec::new();
         put_str(&mut strings, &info.tool_version);
@@ -170,11 +153,6 @@ impl PvsWriter {
         }
         for &i in &input_of_rank {
             write_leb128(&mut objects, u64::from(i));
-        }
-        let mut vertex_bytes = Vec::with_capacity(vertices.len() * 16);
-        for p in &vertices {
-            put_f64(&mut vertex_bytes, p.x);
-            put_f64(&mut vertex_bytes, p.y);
         }
         let block_count = cells.len().div_ceil(block_cells as usize);
         let index_len = 8 * (block_count + 1);
@@ -241,12 +219,10 @@ impl PvsWriter {
             index_at,
             blocks_at,
             pushed: 0,
-            block: Vec::new(),
-            earlier: Vec::new(),
+            block: BlockEncoder::new(n as u32),
             cur: Vec::new(),
-            diff: Vec::new(),
             stats,
-            mode_counts: [0; 4],
+            coding_counts: [0; 3],
         })
     }
 
@@ -279,14 +255,12 @@ impl PvsWriter {
         self.cur
             .extend(visible.iter().map(|&i| self.rank_of[i as usize]));
         self.cur.sort_unstable();
-        let mode = encode_cell(&self.earlier, &self.cur, &mut self.diff, &mut self.block);
-        self.mode_counts[mode as usize] += 1;
-        self.earlier.push(std::mem::take(&mut self.cur));
+        let refs = self.block.push(&self.cur);
+        self.coding_counts[refs as usize] += 1;
         self.pushed += 1;
         if self.pushed.is_multiple_of(self.block_cells) || self.pushed == self.cell_count {
-            self.out.extend_from_slice(&self.block);
-            self.block.clear();
-            self.earlier.clear();
+            let bytes = self.block.finish();
+            self.out.extend_from_slice(&bytes);
             let b = self.pushed.div_ceil(self.block_cells);
             let end = (self.out.len() - self.blocks_at) as u64;
             patch_u64(&mut self.out, self.index_at + 8 * b, end);
@@ -294,9 +268,9 @@ impl PvsWriter {
         Ok(())
     }
 
-    /// How many cells used each mode so far, index = mode.
-    pub fn mode_counts(&self) -> [u64; 4] {
-        self.mode_counts
+    /// How many cells were coded with no, one and two references so far.
+    pub fn coding_counts(&self) -> [u64; 3] {
+        self.coding_counts
     }
 
     /// The complete file bytes (every cell must have been pushed).
@@ -327,13 +301,12 @@ impl PvsWriter {
 }
 
 /// A representative point per object when the caller has none: the mean
-/// centroid of the cells that see it (objects seen by no cell go to the
-/// origin). Neighbouring objects are seen from neighbouring cells, so this
-/// numbers objects spatially enough for the coding.
+/// centroid of the cells that see it, near the object (objects seen by no
+/// cell go to the origin). Neighbouring objects are seen from neighbouring
+/// cells, so this numbers objects spatially enough for the coding.
 pub fn points_from_sets(data: &PvsData) -> Vec<DVec2> {
-    let mut sets = data.visible.iter();
     points_of_sets(data.object_ids.len(), &data.cells, &mut |f| {
-        sets.try_for_each(|s| f(s))
+        data.visible.iter().try_for_each(|s| f(s))
     })
     .expect("the sets of a PvsData are in memory")
 }
@@ -342,29 +315,42 @@ pub fn points_from_sets(data: &PvsData) -> Vec<DVec2> {
 /// callback (so a caller can stream them from a compact store).
 pub type EachSet<'a> = dyn FnMut(&mut dyn FnMut(&[u32]) -> Result<()>) -> Result<()> + 'a;
 
-/// [`points_from_sets`] over sets handed out one at a time.
+/// [`points_from_sets`] over sets handed out one at a time (twice: the
+/// mean centre and spread of the cells that see each object, then the mean
+/// of those cells within that spread of the first mean, which stays near
+/// the object rather than drifting along its long sight lines).
 fn points_of_sets(objects: usize, cells: &[[DVec2; 3]], each: &mut EachSet) -> Result<Vec<DVec2>> {
+    let centres: Vec<DVec2> = cells.iter().map(|t| (t[0] + t[1] + t[2]) / 3.0).collect();
     let mut sum = vec![DVec2::ZERO; objects];
+    let mut square = vec![0.0f64; objects];
     let mut count = vec![0u32; objects];
-    let mut cell = 0;
-    each(&mut |set| {
-        let Some(tri) = cells.get(cell) else {
-            return Err(Error::format(format!(
-                "more visible sets than the {} cells",
-                cells.len()
-            )));
-        };
-        cell += 1;
-        let centre = (tri[0] + tri[1] + tri[2]) / 3.0;
-        for &i in set {
-            if let (Some(s), Some(k)) = (sum.get_mut(i as usize), count.get_mut(i as usize)) {
-                *s += centre;
-                *k += 1;
+    let mut pass = |sum: &mut [DVec2],
+                    square: &mut [f64],
+                    count: &mut [u32],
+                    keep: &dyn Fn(usize, DVec2) -> bool|
+     -> Result<()> {
+        let mut cell = 0;
+        each(&mut |set| {
+            let Some(&centre) = centres.get(cell) else {
+                return Err(Error::format(format!(
+                    "more visible sets than the {} cells",
+                    cells.len()
+                )));
+            };
+            cell += 1;
+            for &i in set {
+                let i = i as usize;
+                if i < objects && keep(i, centre) {
+                    sum[i] += centre;
+                    square[i] += centre.length_squared();
+                    count[i] += 1;
+                }
             }
-        }
-        Ok(())
-    })?;
-    Ok(sum
+            Ok(())
+        })
+    };
+    pass(&mut sum, &mut square, &mut count, &|_, _| true)?;
+    let mean: Vec<DVec2> = sum
         .iter()
         .zip(&count)
         .map(|(s, &k)| {
@@ -374,10 +360,35 @@ fn points_of_sets(objects: usize, cells: &[[DVec2; 3]], each: &mut EachSet) -> R
                 DVec2::ZERO
             }
         })
+        .collect();
+    // Squared spread: mean squared distance of the cells from the mean.
+    let spread: Vec<f64> = (0..objects)
+        .map(|i| {
+            if count[i] > 0 {
+                (square[i] / f64::from(count[i]) - mean[i].length_squared()).max(0.0)
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let mut sum2 = vec![DVec2::ZERO; objects];
+    let mut square2 = vec![0.0f64; objects];
+    let mut count2 = vec![0u32; objects];
+    pass(&mut sum2, &mut square2, &mut count2, &|i, c| {
+        c.distance_squared(mean[i]) <= spread[i]
+    })?;
+    Ok((0..objects)
+        .map(|i| {
+            if count2[i] > 0 {
+                sum2[i] / f64::from(count2[i])
+            } else {
+                mean[i]
+            }
+        })
         .collect())
 }
 
-/// Write a file whose sets are handed out twice by `each` (once to number
+/// Write a file whose sets are handed out three times by `each` (once to number
 /// the objects, once to code them), never all held at once: the same bytes
 /// as [`write_pvs`] of the same data.
 pub fn write_streamed(

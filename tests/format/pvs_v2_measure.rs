@@ -4,6 +4,8 @@
 //!
 //! CITYPVS_V1=city.v1.pvs [CITYPVS_CITY=city.geojson] [CITYPVS_OUT=city.pvs]
 //! cargo test --release --test format pvs_v2_measure:: -- --ignored --nocapture
+//!
+//! or CITYPVS_V2=city.pvs (a file this citypvs reads) instead of CITYPVS_V1.
 
 use std::time::Instant;
 
@@ -16,7 +18,7 @@ fn encode(
     data: &PvsData,
     points: &[DVec2],
     block: u32,
-) -> (Vec<u8>, citypvs::pvs::WriteStats, [u64; 4]) {
+) -> (Vec<u8>, citypvs::pvs::WriteStats, [u64; 3]) {
     let mut w = PvsWriter::with_block_cells(
         data.info.clone(),
         data.object_ids.clone(),
@@ -28,7 +30,7 @@ fn encode(
     for s in &data.visible {
         w.push_cell(s).unwrap();
     }
-    let modes = w.mode_counts();
+    let modes = w.coding_counts();
     let (bytes, stats) = w.finish().unwrap();
     (bytes, stats, modes)
 }
@@ -36,12 +38,37 @@ fn encode(
 #[test]
 #[ignore]
 fn convert_and_measure() {
-    let Ok(v1) = std::env::var("CITYPVS_V1") else {
-        eprintln!("set CITYPVS_V1 to a version 1 .pvs file");
+    let (v1, mut data, raw) = if let Ok(v2) = std::env::var("CITYPVS_V2") {
+        let reader = PvsReader::open(v2.as_ref()).unwrap();
+        let mut visible = Vec::new();
+        reader
+            .for_each_visible(|_, s| {
+                visible.push(s.to_vec());
+                Ok(())
+            })
+            .unwrap();
+        let data = PvsData {
+            info: reader.info().clone(),
+            object_ids: reader.object_ids().to_vec(),
+            cells: reader.cell_triangles(),
+            visible,
+        };
+        let raw = citypvs::pvs::v1::write_v1(&data);
+        (v2, data, raw)
+    } else if let Ok(v1) = std::env::var("CITYPVS_V1") {
+        let raw = std::fs::read(&v1).unwrap();
+        (v1, read_v1(&raw).unwrap(), raw)
+    } else {
+        eprintln!("set CITYPVS_V1 to a version 1 .pvs file or CITYPVS_V2 to a version 2 one");
         return;
     };
-    let raw = std::fs::read(&v1).unwrap();
-    let data = read_v1(&raw).unwrap();
+    if let Ok(out) = std::env::var("CITYPVS_V1_OUT") {
+        std::fs::write(&out, &raw).unwrap();
+    }
+    if data.info.near_field == 0.0 {
+        // Version 1 did not store it; any valid value codes the same sets.
+        data.info.near_field = citypvs::settings::DEFAULT_NEAR_FIELD;
+    }
     let n = data.object_ids.len();
     let cells = data.cells.len();
     let total: usize = data.visible.iter().map(Vec::len).sum();
