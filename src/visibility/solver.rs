@@ -17,7 +17,7 @@ use glam::DVec2;
 
 use super::bitset::ObjectSet;
 use super::cullmap::CullWindow;
-use super::horizon::Horizon;
+use super::horizon::{Horizon, floor_i64};
 use super::index::{NO_PARENT, SceneIndex};
 use crate::model::{Rect, distance_to_segment};
 
@@ -35,6 +35,57 @@ fn chain_stride(distance: f64) -> u32 {
         d if d < 192.0 => 2,
         _ => 4,
     }
+}
+
+/// Side in metres of the absolute squares (anchored at local (0, 0)) that
+/// decide a chain's stride: the chains starting at an edge depend only on
+/// the edge, its ring and the sample, never on the index's bucket grid.
+const STRIDE_CELL: f64 = 16.0;
+
+/// The stride square holding `p`.
+fn stride_cell(p: DVec2) -> (i64, i64) {
+    (
+        floor_i64(p.x / STRIDE_CELL),
+        floor_i64(p.y / STRIDE_CELL),
+    )
+}
+
+/// The stride of a chain starting at `a`, seen from a sample in stride
+/// square `vc`: by the Chebyshev ring of `a`'s square around `vc`, as
+/// [`chain_stride`] of the ring's inner distance.
+fn edge_stride(vc: (i64, i64), a: DVec2) -> u32 {
+    let c = stride_cell(a);
+    let ring = (c.0 - vc.0).abs().max((c.1 - vc.1).abs());
+    chain_stride((ring - 1).max(0) as f64 * STRIDE_CELL)
+}
+
+/// The one stride of every chain starting in `rect` (a bucket, aligned to
+/// the stride squares) seen from square `vc`, or `None` when the bucket
+/// spans squares of different strides.
+fn bucket_stride(vc: (i64, i64), rect: &Rect) -> Option<u32> {
+    let lo = stride_cell(rect.min);
+    let hi = stride_cell(rect.max);
+    let (hx, hy) = (hi.0 - 1, hi.1 - 1);
+    let gap = |c: i64, l: i64, h: i64| (l - c).max(c - h).max(0);
+    let far = |c: i64, l: i64, h: i64| (c - l).abs().max((c - h).abs());
+    let ring_min = gap(vc.0, lo.0, hx.max(lo.0)).max(gap(vc.1, lo.1, hy.max(lo.1)));
+    let ring_max = far(vc.0, lo.0, hx.max(lo.0)).max(far(vc.1, lo.1, hy.max(lo.1)));
+    let s = |ring: i64| chain_stride((ring - 1).max(0) as f64 * STRIDE_CELL);
+    (s(ring_min) == s(ring_max)).then(|| s(ring_min))
+}
+
+/// The greatest distance from `v` to the points of the chain of `pieces`
+/// pieces starting at edge `e`.
+fn chain_reach(index: &SceneIndex, v: DVec2, e: u32, pieces: u32) -> f64 {
+    let edge = &index.edges[e as usize];
+    let mut d_max = edge.a.distance(v);
+    let mut cur = e;
+    for _ in 0..pieces {
+        let c = &index.edges[cur as usize];
+        d_max = d_max.max(c.b.distance(v));
+        cur = c.next;
+    }
+    d_max
 }
 
 /// Width in metres of the distance slots of the chain queue.
@@ -293,13 +344,7 @@ impl<'a> Solver<'a> {
                         continue;
                     }
                     self.grow_horizon(v, r);
-                    let object = &index.objects[o as usize];
-                    if !drawn && object.rect.intersects(&window) {
-                        self.window.clear_heights();
-                        self.rasterise_occluders(v);
-                        drawn = true;
-                    }
-                    if !self.object_hidden(v, o, &window) {
+                    if !self.object_hidden(v, o, &window, &mut drawn) {
                         visible.insert(o as usize);
                         self.refresh_remaining(index.object_leaf[o as usize], visible);
                     }
@@ -308,22 +353,33 @@ impl<'a> Solver<'a> {
         }
     }
 
-    /// True when the object is hidden: its pixels in the window by the cull
-    /// map, and any part outside the window by the horizon.
-    fn object_hidden(&self, v: DVec2, o: u32, window: &Rect) -> bool {
-        let object = &self.index.objects[o as usize];
-        let mut outside = false;
-        if object.rect.intersects(window)
-            && !self
-                .window
-                .spans_hidden(&object.spans, object.height, &mut outside)
+    /// True when the object is hidden: by the horizon over its whole
+    /// rectangle (valid for any object, docs/METHOD.md §6), or, when it lies
+    /// wholly inside the window, pixel by pixel by the cull map. (An object
+    /// reaching out of the window needs the horizon for its outside part,
+    /// and the horizon over the whole rectangle then suffices.) So the
+    /// verdict reads only the object, the horizon at its distance and the
+    /// cull map, and a hidden pyramid node implies it for each object below.
+    fn object_hidden(&mut self, v: DVec2, o: u32, window: &Rect, drawn: &mut bool) -> bool {
+        let index = self.index;
+        let object = &index.objects[o as usize];
+        if self
+            .horizon
+            .hides_rect(v, self.eye, &object.rect, object.height)
         {
+            return true;
+        }
+        if !contains(window, &object.rect) {
             return false;
         }
-        contains(window, &object.rect)
-            || self
-                .horizon
-                .hides_rect(v, self.eye, &object.rect, object.height)
+        if !*drawn {
+            self.window.clear_heights();
+            self.rasterise_occluders(v);
+            *drawn = true;
+        }
+        let mut outside = false;
+        self.window
+            .spans_hidden(&object.spans, object.height, &mut outside)
     }
 
     /// Add to the horizon every chain whose farthest vertex is nearer than `r`.
@@ -332,13 +388,12 @@ impl<'a> Solver<'a> {
         // Sweep edge buckets out to distance r so every chain that could be
         // nearer than r is queued.
         let rings_needed = (r / index.bucket_size()).ceil() as i64 + 1;
+        let vc = stride_cell(v);
         while self.swept_rings < rings_needed && self.swept_rings < index.max_bucket_ring(v) {
             self.swept_rings += 1;
             let ring = self.swept_rings;
-            let (stamp, eye) = (self.stamp, self.eye);
-            let (edge_stamp, chains, horizon) =
-                (&mut self.edge_stamp, &mut self.chains, &self.horizon);
-            let stride = chain_stride((ring - 1).max(0) as f64 * index.bucket_size());
+            let eye = self.eye;
+            let (chains, horizon) = (&mut self.chains, &self.horizon);
             index.buckets_in_ring(v, ring, |bucket| {
                 let height = index.bucket_height(bucket);
                 if height <= eye {
@@ -348,28 +403,18 @@ impl<'a> Solver<'a> {
                 // rectangle and is no higher than the bucket's highest edge:
                 // if that is all below the horizon already, no chain of the
                 // bucket can raise it (the horizon only grows).
-                let reach = index.bucket_chain_rect(bucket, stride);
+                let reach = index.bucket_chain_rect(bucket, bucket_stride(vc, &index.bucket_rect(bucket)));
                 if reach.is_empty() || horizon.hides_rect(v, eye, reach, height) {
                     return;
                 }
-                for &e in index.bucket_edges(bucket) {
+                for &e in index.bucket_starts(bucket) {
                     let edge = &index.edges[e as usize];
-                    if !edge.ring_pos.is_multiple_of(stride)
-                        || edge.height <= eye
-                        || edge_stamp[e as usize] == stamp
-                    {
+                    let stride = edge_stride(vc, edge.a);
+                    if !edge.ring_pos.is_multiple_of(stride) || edge.height <= eye {
                         continue;
                     }
-                    edge_stamp[e as usize] = stamp;
                     let pieces = stride + 1;
-                    let mut d_max = edge.a.distance(v);
-                    let mut cur = e;
-                    for _ in 0..pieces {
-                        let c = &index.edges[cur as usize];
-                        d_max = d_max.max(c.b.distance(v));
-                        cur = c.next;
-                    }
-                    chains.push(d_max, e, pieces);
+                    chains.push(chain_reach(index, v, e, pieces), e, pieces);
                 }
             });
         }
@@ -414,8 +459,25 @@ impl<'a> Solver<'a> {
                 gathered.push((distance_to_segment(v, edge.a, edge.b), e));
             }
         });
-        self.gathered
-            .sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+        // Ties in distance are broken by the edges' own coordinates, not by
+        // their numbering, so the drawing order (and the drops) depend on the
+        // edges only, not on what else the city holds.
+        let edges = &index.edges;
+        let geometry = |e: u32| {
+            let g = &edges[e as usize];
+            [g.a.x, g.a.y, g.b.x, g.b.y, g.height]
+        };
+        self.gathered.sort_by(|x, y| {
+            x.0.total_cmp(&y.0).then_with(|| {
+                let (gx, gy) = (geometry(x.1), geometry(y.1));
+                gx.iter()
+                    .zip(&gy)
+                    .map(|(p, q)| p.total_cmp(q))
+                    .find(|o| o.is_ne())
+                    .unwrap_or(std::cmp::Ordering::Equal)
+                    .then(x.1.cmp(&y.1))
+            })
+        });
         for &(_, e) in &self.gathered {
             let edge = &index.edges[e as usize];
             // The solid is on the edge's left; the eye faces the edge's outside
