@@ -12,6 +12,7 @@ pub mod blocks;
 pub mod codec;
 mod grid;
 pub use grid::triangle_contains;
+pub mod prints;
 mod read;
 #[doc(hidden)]
 pub mod v1;
@@ -100,6 +101,8 @@ pub struct PvsData {
     pub info: BakeInfo,
     /// Object ids (input building ids), index = object index.
     pub object_ids: Vec<String>,
+    /// Per object, its fingerprint (`prints.rs`); empty for none.
+    pub object_prints: Vec<prints::ObjectPrint>,
     /// Cell triangles in local metres, counter-clockwise.
     pub cells: Vec<[DVec2; 3]>,
     /// Per cell, the ascending object indices of its visible set.

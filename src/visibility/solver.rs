@@ -17,8 +17,8 @@ use glam::DVec2;
 
 use super::bitset::ObjectSet;
 use super::cullmap::CullWindow;
-use super::horizon::{Horizon, floor_i64};
-use super::index::{NO_PARENT, SceneIndex};
+use super::horizon::{Horizon, bins_overlap, floor_i64, rect_bins};
+use super::index::{MAX_EDGE_PIECE, NO_PARENT, SceneIndex};
 use crate::model::{Rect, distance_to_segment};
 
 /// Default half-size in metres of the near-field cull map.
@@ -44,10 +44,7 @@ const STRIDE_CELL: f64 = 16.0;
 
 /// The stride square holding `p`.
 fn stride_cell(p: DVec2) -> (i64, i64) {
-    (
-        floor_i64(p.x / STRIDE_CELL),
-        floor_i64(p.y / STRIDE_CELL),
-    )
+    (floor_i64(p.x / STRIDE_CELL), floor_i64(p.y / STRIDE_CELL))
 }
 
 /// The stride of a chain starting at `a`, seen from a sample in stride
@@ -403,7 +400,8 @@ impl<'a> Solver<'a> {
                 // rectangle and is no higher than the bucket's highest edge:
                 // if that is all below the horizon already, no chain of the
                 // bucket can raise it (the horizon only grows).
-                let reach = index.bucket_chain_rect(bucket, bucket_stride(vc, &index.bucket_rect(bucket)));
+                let reach =
+                    index.bucket_chain_rect(bucket, bucket_stride(vc, &index.bucket_rect(bucket)));
                 if reach.is_empty() || horizon.hides_rect(v, eye, reach, height) {
                     return;
                 }
@@ -437,6 +435,100 @@ impl<'a> Solver<'a> {
             self.horizon.add_chain(v, self.eye, edge.height, chain);
         }
         self.ready = ready;
+    }
+
+    /// True when every `(rect, top)` of `objects` is hidden from `v` by the
+    /// horizon of the chains nearer than its rectangle, with a margin against
+    /// rounding ([`Horizon::hides_rect_strictly`]). Only chains that can meet
+    /// the directions of some rectangle are added (any subset of the chains
+    /// gives a valid, lower horizon), and each rectangle is tested, nearest
+    /// first, against the chains nearer than it. So a `true` here implies
+    /// that the solver's own horizon test of each rectangle at its distance
+    /// says hidden.
+    pub fn probe_hidden(&mut self, v: DVec2, objects: &[(Rect, f64)]) -> bool {
+        let index = self.index;
+        let eye = self.eye;
+        let mut order: Vec<(f64, usize)> = Vec::with_capacity(objects.len());
+        let mut targets = Vec::with_capacity(objects.len());
+        // A chain nearer than a rectangle that meets its directions has its
+        // points there inside the hull of `v` and the rectangle, and starts
+        // within a chain's length of them.
+        let mut hull = Rect::EMPTY;
+        hull.include(v);
+        for (k, (rect, _)) in objects.iter().enumerate() {
+            let Some(bins) = rect_bins(v, rect) else {
+                return false;
+            };
+            targets.push(bins);
+            order.push((rect_distance(v, rect), k));
+            hull = hull.union(rect);
+        }
+        order.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+        let hull = hull.grown(4.0 * MAX_EDGE_PIECE + 1.0);
+        self.horizon.clear();
+        self.chains.clear();
+        let vc = stride_cell(v);
+        let max_ring = index.max_bucket_ring(v);
+        let mut swept = -1;
+        let mut ready = std::mem::take(&mut self.ready);
+        let mut result = true;
+        for &(r, k) in &order {
+            let (rect, top) = &objects[k];
+            let rings = ((r / index.bucket_size()).ceil() as i64 + 1).min(max_ring);
+            while swept < rings {
+                swept += 1;
+                let (chains, horizon) = (&mut self.chains, &self.horizon);
+                index.buckets_in_ring(v, swept, |bucket| {
+                    let height = index.bucket_height(bucket);
+                    if height <= eye || !index.bucket_rect(bucket).intersects(&hull) {
+                        return;
+                    }
+                    let reach = index.bucket_chain_rect(bucket, None);
+                    if reach.is_empty() || horizon.hides_rect(v, eye, reach, height) {
+                        return;
+                    }
+                    if let Some(bins) = rect_bins(v, reach)
+                        && !targets.iter().any(|&t| bins_overlap(bins, t))
+                    {
+                        return;
+                    }
+                    for &e in index.bucket_starts(bucket) {
+                        let edge = &index.edges[e as usize];
+                        let stride = edge_stride(vc, edge.a);
+                        if !edge.ring_pos.is_multiple_of(stride) || edge.height <= eye {
+                            continue;
+                        }
+                        let pieces = stride + 1;
+                        chains.push(chain_reach(index, v, e, pieces), e, pieces);
+                    }
+                });
+            }
+            ready.clear();
+            self.chains.take_nearer(r, &mut ready);
+            for &(_, e, pieces) in &ready {
+                let edge = &index.edges[e as usize];
+                let mut cur = e;
+                let mut count = 0;
+                let chain = std::iter::once(edge.a).chain(std::iter::from_fn(|| {
+                    if count >= pieces {
+                        return None;
+                    }
+                    count += 1;
+                    let c = &index.edges[cur as usize];
+                    cur = c.next;
+                    Some(c.b)
+                }));
+                self.horizon.add_chain(v, eye, edge.height, chain);
+            }
+            if !self.horizon.hides_rect_strictly(v, eye, rect, *top) {
+                result = false;
+                break;
+            }
+        }
+        self.ready = ready;
+        self.horizon.clear();
+        self.chains.clear();
+        result
     }
 
     /// Fill the window with U_V from the occluder edges that reach into it,
