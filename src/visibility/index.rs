@@ -169,23 +169,25 @@ impl SceneIndex {
             .iter()
             .map(|b| {
                 let mut rects = [Rect::EMPTY; 4];
-                for level in 0..3 {
+                let mut all = Rect::EMPTY;
+                for (level, rect) in rects.iter_mut().take(3).enumerate() {
                     let stride = 1u32 << level;
                     for &e in b {
                         let edge = &edges[e as usize];
                         if !edge.ring_pos.is_multiple_of(stride) {
                             continue;
                         }
-                        rects[level].include(edge.a);
+                        rect.include(edge.a);
                         let mut cur = e;
                         for _ in 0..=stride {
                             let c = &edges[cur as usize];
-                            rects[level].include(c.b);
+                            rect.include(c.b);
                             cur = c.next;
                         }
                     }
-                    rects[3] = rects[3].union(&rects[level]);
+                    all = all.union(rect);
                 }
+                rects[3] = all;
                 rects
             })
             .collect();

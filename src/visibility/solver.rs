@@ -464,6 +464,29 @@ impl<'a> Solver<'a> {
             hull = hull.union(rect);
         }
         order.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+        // First the union of all the rectangles, at its (nearest) distance,
+        // up to the highest top: if the horizon hides that, it hides each
+        // rectangle (a sub-rectangle, no nearer, no higher; the horizon at
+        // a greater distance holds more chains), without sweeping out to
+        // the farthest one.
+        let mut union = Rect::EMPTY;
+        let mut highest = f64::NEG_INFINITY;
+        for (rect, top) in objects {
+            union = union.union(rect);
+            highest = highest.max(*top);
+        }
+        let mut tests: Vec<(f64, Rect, f64, bool)> = Vec::with_capacity(order.len() + 1);
+        if objects.len() > 1
+            && let Some(bins) = rect_bins(v, &union)
+        {
+            targets.push(bins);
+            tests.push((rect_distance(v, &union), union, highest, true));
+        }
+        tests.extend(
+            order
+                .iter()
+                .map(|&(r, k)| (r, objects[k].0, objects[k].1, false)),
+        );
         let hull = hull.grown(4.0 * MAX_EDGE_PIECE + 1.0);
         self.horizon.clear();
         self.chains.clear();
@@ -472,8 +495,7 @@ impl<'a> Solver<'a> {
         let mut swept = -1;
         let mut ready = std::mem::take(&mut self.ready);
         let mut result = true;
-        for &(r, k) in &order {
-            let (rect, top) = &objects[k];
+        for &(r, rect, top, is_union) in &tests {
             let rings = ((r / index.bucket_size()).ceil() as i64 + 1).min(max_ring);
             while swept < rings {
                 swept += 1;
@@ -520,7 +542,14 @@ impl<'a> Solver<'a> {
                 }));
                 self.horizon.add_chain(v, eye, edge.height, chain);
             }
-            if !self.horizon.hides_rect_strictly(v, eye, rect, *top) {
+            let hidden = self.horizon.hides_rect_strictly(v, eye, &rect, top);
+            if is_union {
+                if hidden {
+                    break;
+                }
+                continue;
+            }
+            if !hidden {
                 result = false;
                 break;
             }
