@@ -121,6 +121,7 @@ pub fn bake(
     let data = PvsData {
         info: bake_info(scene),
         object_ids: scene.city.buildings.iter().map(|b| b.id.clone()).collect(),
+        object_prints: crate::pvs::prints::object_prints(scene),
         cells: scene.cells.triangles.clone(),
         visible,
     };

@@ -50,6 +50,11 @@ pub struct BakeArgs {
     /// CITYPVS_SHARD (anything else).
     #[arg(long, value_name = "K/N")]
     pub shard: Option<String>,
+    /// An earlier bake of this city (same settings, same citypvs): only the
+    /// cells whose sets can have changed since are solved, the others are
+    /// copied; the file is the same as without --previous.
+    #[arg(long, value_name = "OLD.pvs")]
+    pub previous: Option<PathBuf>,
 }
 
 /// What `bake --json` prints.
@@ -80,6 +85,12 @@ struct Summary<'a> {
     cells_from_checkpoint: usize,
     /// Checkpoints saved while baking.
     checkpoints_written: usize,
+    /// Cells solved, and cells copied from `--previous`.
+    cells_recomputed: usize,
+    cells_copied: usize,
+    /// What `--previous` changed, when given.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    rebake: Option<crate::scale::rebake::RebakeStats>,
 }
 
 fn load_city(args: &BakeArgs) -> Result<(City, String)> {
@@ -142,6 +153,11 @@ fn run_in_pool(args: &BakeArgs, threads: usize) -> Result<i32> {
         Some(text) => Some(ShardArg::parse(text)?.resolve(|name| std::env::var(name).ok())?),
         None => None,
     };
+    if args.previous.is_some() && shard.is_some() {
+        return Err(crate::Error::usage(
+            "--previous and --shard cannot be combined: bake the whole city with --previous",
+        ));
+    }
     let output = output_path(args, shard.map(|(s, _)| s));
     let inputs: Vec<&Path> = args
         .city
@@ -184,15 +200,26 @@ fn run_in_pool(args: &BakeArgs, threads: usize) -> Result<i32> {
         Some(b) => b.println(line),
         None => eprintln!("{line}"),
     };
-    let baked = bake_range(
-        &scene,
-        &engine,
-        spec,
-        range.clone(),
-        &output,
-        &tick,
-        &mut log,
-    )?;
+    let (baked, rebake) = match &args.previous {
+        Some(previous) => {
+            let old = crate::pvs::PvsReader::open(previous).map_err(|e| e.context("--previous"))?;
+            crate::scale::rebake::check_previous(&scene, &old, previous)?;
+            let (baked, stats) = crate::scale::rebake::rebake_all(&scene, &engine, &old, &tick)?;
+            (baked, Some(stats))
+        }
+        None => (
+            bake_range(
+                &scene,
+                &engine,
+                spec,
+                range.clone(),
+                &output,
+                &tick,
+                &mut log,
+            )?,
+            None,
+        ),
+    };
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
@@ -211,6 +238,7 @@ fn run_in_pool(args: &BakeArgs, threads: usize) -> Result<i32> {
             &output,
             crate::bake::bake_info(&scene),
             scene.city.buildings.iter().map(|b| b.id.clone()).collect(),
+            crate::pvs::prints::object_prints(&scene),
             scene.cells.triangles.clone(),
             &mut |f| baked.part.for_each_set(f),
         )?
@@ -244,6 +272,13 @@ fn run_in_pool(args: &BakeArgs, threads: usize) -> Result<i32> {
         cell_range: [range.start, range.end],
         cells_from_checkpoint: baked.cells_from_checkpoint,
         checkpoints_written: baked.checkpoints_written,
+        cells_recomputed: rebake
+            .as_ref()
+            .map_or(range.len() - baked.cells_from_checkpoint, |r| {
+                r.cells_recomputed
+            }),
+        cells_copied: rebake.as_ref().map_or(0, |r| r.cells_copied),
+        rebake,
     };
     let mut out = super::common::summary_stream(&[&output]);
     if args.json {
@@ -266,6 +301,14 @@ fn print_summary(out: &mut dyn std::io::Write, s: &Summary) {
             "shard          {shard} (cells {}..{})",
             s.cell_range[0],
             s.cell_range[1]
+        );
+    }
+    if let Some(r) = &s.rebake {
+        say!(
+            out,
+            "previous       {} cells copied, {} recomputed",
+            r.cells_copied,
+            r.cells_recomputed
         );
     }
     if s.cells_from_checkpoint > 0 {

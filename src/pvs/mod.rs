@@ -15,6 +15,7 @@ mod grid;
 pub mod mesh;
 pub mod rc;
 pub use grid::triangle_contains;
+pub mod prints;
 mod read;
 #[doc(hidden)]
 pub mod v1;
@@ -103,6 +104,8 @@ pub struct PvsData {
     pub info: BakeInfo,
     /// Object ids (input building ids), index = object index.
     pub object_ids: Vec<String>,
+    /// Per object, its fingerprint (`prints.rs`); empty for none.
+    pub object_prints: Vec<prints::ObjectPrint>,
     /// Cell triangles in local metres, counter-clockwise.
     pub cells: Vec<[DVec2; 3]>,
     /// Per cell, the ascending object indices of its visible set.

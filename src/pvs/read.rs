@@ -8,6 +8,8 @@
 use std::path::Path;
 
 use glam::DVec2;
+
+use super::prints::ObjectPrint;
 use sha2::{Digest, Sha256};
 
 use super::blocks::{BlockDecoder, read_varint};
@@ -21,6 +23,8 @@ pub struct PvsReader {
     bytes: Vec<u8>,
     info: BakeInfo,
     object_ids: Vec<String>,
+    /// The object fingerprint list (empty when the file has none).
+    object_prints: Vec<ObjectPrint>,
     /// Input object index of each spatial rank.
     input_of_rank: Vec<u32>,
     vertices: Vec<DVec2>,
@@ -152,6 +156,7 @@ impl PvsReader {
         Ok(PvsReader {
             info: parsed.info,
             object_ids: parsed.object_ids,
+            object_prints: parsed.object_prints,
             input_of_rank: parsed.input_of_rank,
             vertices: parsed.vertices,
             corners: parsed.corners,
@@ -171,6 +176,11 @@ impl PvsReader {
     }
     pub fn object_ids(&self) -> &[String] {
         &self.object_ids
+    }
+    /// The object fingerprints, in object order (empty when the file has
+    /// no fingerprint list).
+    pub fn object_prints(&self) -> &[ObjectPrint] {
+        &self.object_prints
     }
     /// Cells per block in this file.
     pub fn block_cells(&self) -> usize {
@@ -326,6 +336,7 @@ impl PvsReader {
 struct Parsed {
     info: BakeInfo,
     object_ids: Vec<String>,
+    object_prints: Vec<ObjectPrint>,
     input_of_rank: Vec<u32>,
     vertices: Vec<DVec2>,
     corners: Vec<[u32; 3]>,
@@ -456,7 +467,8 @@ fn parse(body: &[u8]) -> Result<Parsed> {
         seen[i as usize] = true;
         input_of_rank.push(i as u32);
     }
-    o.done()?;
+    let rest = o.take(o.left(), "object fingerprints")?;
+    let object_prints = super::prints::read_prints(rest, n)?;
 
     // Vertices and triangles: range coded, each section at least
     // VERTEX_MIN_BYTES per vertex and CELL_MIN_BYTES per cell.
@@ -513,6 +525,7 @@ fn parse(body: &[u8]) -> Result<Parsed> {
     Ok(Parsed {
         info,
         object_ids,
+        object_prints,
         input_of_rank,
         vertices,
         corners,

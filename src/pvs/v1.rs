@@ -104,6 +104,7 @@ pub fn read_v1(bytes: &[u8]) -> Result<PvsData> {
         })
         .collect::<Result<Vec<_>>>()?;
     Ok(PvsData {
+        object_prints: Vec::new(),
         info,
         object_ids,
         cells,

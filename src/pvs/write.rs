@@ -7,6 +7,8 @@
 use std::path::Path;
 
 use glam::DVec2;
+
+use super::prints::ObjectPrint;
 use sha2::{Digest, Sha256};
 
 use super::blocks::BlockEncoder;
@@ -96,11 +98,48 @@ impl PvsWriter {
         PvsWriter::with_block_cells(info, object_ids, object_points, cells, BLOCK_CELLS)
     }
 
+    /// [`PvsWriter::new`] with the object fingerprint list (one per object,
+    /// or empty for none).
+    pub fn with_prints(
+        info: BakeInfo,
+        object_ids: Vec<String>,
+        object_prints: Vec<ObjectPrint>,
+        object_points: Vec<DVec2>,
+        cells: Vec<[DVec2; 3]>,
+    ) -> Result<PvsWriter> {
+        PvsWriter::start(
+            info,
+            object_ids,
+            object_prints,
+            object_points,
+            cells,
+            BLOCK_CELLS,
+        )
+    }
+
     /// Start a file with `block_cells` cells per block (1 to
     /// [`super::MAX_BLOCK_CELLS`]); for measuring the block size.
     pub fn with_block_cells(
         info: BakeInfo,
         object_ids: Vec<String>,
+        object_points: Vec<DVec2>,
+        cells: Vec<[DVec2; 3]>,
+        block_cells: u32,
+    ) -> Result<PvsWriter> {
+        PvsWriter::start(
+            info,
+            object_ids,
+            Vec::new(),
+            object_points,
+            cells,
+            block_cells,
+        )
+    }
+
+    fn start(
+        info: BakeInfo,
+        object_ids: Vec<String>,
+        object_prints: Vec<ObjectPrint>,
         object_points: Vec<DVec2>,
         cells: Vec<[DVec2; 3]>,
         block_cells: u32,
@@ -154,6 +193,13 @@ impl PvsWriter {
         for &i in &input_of_rank {
             write_leb128(&mut objects, u64::from(i));
         }
+        if !object_prints.is_empty() && object_prints.len() != n {
+            return Err(Error::format(format!(
+                "{n} objects but {} object fingerprints",
+                object_prints.len()
+            )));
+        }
+        super::prints::write_prints(&mut objects, &object_prints);
         let block_count = cells.len().div_ceil(block_cells as usize);
         let index_len = 8 * (block_count + 1);
 
@@ -395,13 +441,14 @@ pub fn write_streamed(
     path: &Path,
     info: BakeInfo,
     object_ids: Vec<String>,
+    object_prints: Vec<ObjectPrint>,
     cells: Vec<[DVec2; 3]>,
     each: &mut EachSet,
 ) -> Result<WriteStats> {
     let run = || -> Result<(Vec<u8>, WriteStats)> {
         let points = points_of_sets(object_ids.len(), &cells, each)?;
         let count = cells.len();
-        let mut w = PvsWriter::new(info, object_ids, points, cells)?;
+        let mut w = PvsWriter::with_prints(info, object_ids, object_prints, points, cells)?;
         let mut pushed = 0;
         each(&mut |set| {
             pushed += 1;
@@ -434,9 +481,10 @@ pub fn encode_pvs_with_points(data: &PvsData, points: Vec<DVec2>) -> Result<(Vec
             data.visible.len()
         )));
     }
-    let mut w = PvsWriter::new(
+    let mut w = PvsWriter::with_prints(
         data.info.clone(),
         data.object_ids.clone(),
+        data.object_prints.clone(),
         points,
         data.cells.clone(),
     )?;

@@ -6,9 +6,11 @@
 //!
 //! Submodules: [`part`] (the shard and checkpoint file), [`shard`] (which
 //! shard, the split, the merge), [`resume`] (the checkpointed bake of a
-//! range), [`diff`] (comparing two `.pvs` files).
+//! range), [`rebake`] (the incremental bake from a previous file), [`diff`]
+//! (comparing two `.pvs` files).
 
 pub mod diff;
 pub mod part;
+pub mod rebake;
 pub mod resume;
 pub mod shard;

@@ -26,7 +26,7 @@ use crate::settings::Settings;
 /// The first eight bytes of every shard and checkpoint file.
 pub const PART_MAGIC: [u8; 8] = *b"CPVSPART";
 /// The part layout version this code writes and reads.
-pub const PART_VERSION: u32 = 1;
+pub const PART_VERSION: u32 = 2;
 /// Bytes before the payload: magic, version, reserved, length, checksum.
 pub const PREAMBLE_BYTES: usize = 8 + 4 + 4 + 8 + 32;
 /// Decoding may claim at most this many times the payload's size (plus
@@ -161,6 +161,8 @@ pub struct Part {
     pub range_end: u64,
     /// Object ids of the whole bake, index = object index.
     pub object_ids: Vec<String>,
+    /// The objects' fingerprints (`crate::pvs::prints`), one per object.
+    pub object_prints: Vec<crate::pvs::prints::ObjectPrint>,
     /// The triangles of the range's cells: x0 y0 x1 y1 x2 y2 in local metres.
     pub cells: Vec<[f64; 6]>,
     /// The sets of the first `set_lens.len()` cells of the range: the bytes
@@ -345,7 +347,7 @@ impl Part {
         if self.frame != other.frame {
             out.push("frame");
         }
-        if self.object_ids != other.object_ids {
+        if self.object_ids != other.object_ids || self.object_prints != other.object_prints {
             out.push("objects");
         }
         let bits = |c: &[[f64; 6]]| -> Vec<u64> {
@@ -458,6 +460,13 @@ impl Part {
                 self.cells.len()
             ));
         }
+        if !self.object_prints.is_empty() && self.object_prints.len() != self.object_ids.len() {
+            return bad(format!(
+                "{} object fingerprints for {} objects",
+                self.object_prints.len(),
+                self.object_ids.len()
+            ));
+        }
         if self.cells.iter().flatten().any(|v| !v.is_finite()) {
             return bad("a cell triangle has a non-finite coordinate".into());
         }
@@ -529,6 +538,7 @@ mod tests {
             range_start: 3,
             range_end: 6,
             object_ids: (0..6).map(|i| format!("b{i}")).collect(),
+            object_prints: Vec::new(),
             cells: vec![[0.0, 0.0, 1.0, 0.0, 0.0, 1.0]; 3],
             set_lens,
             set_runs,

@@ -52,6 +52,7 @@ pub fn empty_part(scene: &Scene, kind: PartKind, spec: ShardSpec, range: Range<u
         range_start: range.start as u64,
         range_end: range.end as u64,
         object_ids: scene.city.buildings.iter().map(|b| b.id.clone()).collect(),
+        object_prints: crate::pvs::prints::object_prints(scene),
         cells: scene.cells.triangles[range]
             .iter()
             .map(|t| [t[0].x, t[0].y, t[1].x, t[1].y, t[2].x, t[2].y])

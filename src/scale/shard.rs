@@ -172,7 +172,7 @@ pub fn merge_shards(paths: &[PathBuf]) -> Result<PvsData> {
             if f.frame != part.frame {
                 what.push("frame");
             }
-            if f.object_ids != part.object_ids {
+            if f.object_ids != part.object_ids || f.object_prints != part.object_prints {
                 what.push("objects");
             }
             if !what.is_empty() {
@@ -242,6 +242,7 @@ pub fn merge_shards(paths: &[PathBuf]) -> Result<PvsData> {
     Ok(PvsData {
         info: f.bake_info(),
         object_ids: f.object_ids.clone(),
+        object_prints: f.object_prints.clone(),
         cells,
         visible,
     })

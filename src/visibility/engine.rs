@@ -364,6 +364,83 @@ impl<'a> VisibilityEngine<'a> {
         Ok(stats)
     }
 
+    /// For each cell of `cells`: true when every `(rect, top)` of `objects`
+    /// is hidden from every sample of the cell by the horizon of the chains
+    /// nearer than it ([`Solver::probe_hidden`], with its rounding margin).
+    /// Units shared by the cells are probed once.
+    pub fn probe_cells(&self, cells: &[usize], objects: &[(Rect, f64)]) -> Vec<bool> {
+        if objects.is_empty() {
+            return vec![true; cells.len()];
+        }
+        let mut units: Vec<UnitId> = cells.iter().flat_map(|&c| self.cell_units(c)).collect();
+        units.sort_unstable();
+        units.dedup();
+        let hidden: Vec<bool> = units
+            .par_iter()
+            .map_init(
+                || self.solver(),
+                |solver, &unit| {
+                    self.unit_points(unit)
+                        .iter()
+                        .all(|&p| solver.probe_hidden(p, objects))
+                },
+            )
+            .collect();
+        let of: HashMap<UnitId, bool> = units.into_iter().zip(hidden).collect();
+        cells
+            .iter()
+            .map(|&c| self.cell_units(c).iter().all(|u| of[u]))
+            .collect()
+    }
+
+    /// The PVS of each cell of `cells` (ascending object indices), in the
+    /// order given: the sets [`VisibilityEngine::solve_cells`] gives those
+    /// cells. Cells are taken in chunks of [`CHUNK_CELLS`]; the units of a
+    /// chunk are solved once.
+    pub fn solve_cell_list(
+        &self,
+        cells: &[usize],
+        progress: &(dyn Fn(u64) + Sync),
+    ) -> (Vec<Vec<u32>>, SolveStats) {
+        let mut stats = SolveStats::default();
+        let mut out = Vec::with_capacity(cells.len());
+        for chunk in cells.chunks(CHUNK_CELLS) {
+            let mut units: Vec<UnitId> = chunk.iter().flat_map(|&c| self.cell_units(c)).collect();
+            units.sort_unstable();
+            units.dedup();
+            stats.units_solved += units.len();
+            stats.peak_units_held = stats.peak_units_held.max(units.len());
+            stats.samples += units
+                .iter()
+                .map(|&u| self.unit_sample_count(u))
+                .sum::<usize>();
+            let sets: Vec<StoredSet> = units
+                .par_iter()
+                .map_init(
+                    || (self.solver(), ObjectSet::new(self.objects)),
+                    |(solver, scratch), &unit| self.solve_unit(solver, scratch, unit),
+                )
+                .collect();
+            let of: HashMap<UnitId, StoredSet> = units.into_iter().zip(sets).collect();
+            let done: Vec<Vec<u32>> = chunk
+                .par_iter()
+                .map_init(
+                    || ObjectSet::new(self.objects),
+                    |set, &c| {
+                        set.clear();
+                        for u in self.cell_units(c) {
+                            of[&u].add_to(set);
+                        }
+                        progress(1);
+                        set.to_vec()
+                    },
+                )
+                .collect();
+            out.extend(done);
+        }
+        (out, stats)
+    }
+
     /// Every cell's PVS, in cell order (holds them all: for tests and small
     /// scenes; the bake streams with [`VisibilityEngine::solve_cells`]).
     pub fn solve_all(&self, progress: &(dyn Fn(u64) + Sync)) -> Result<Vec<Vec<u32>>> {

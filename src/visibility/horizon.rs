@@ -270,6 +270,18 @@ impl Horizon {
     /// horizon seen from `(v, eye)`. Only valid for the parts of `rect` that
     /// lie behind every chain added so far.
     pub fn hides_rect(&self, v: DVec2, eye: f64, rect: &Rect, top: f64) -> bool {
+        self.hides_rect_by(v, eye, rect, top, 0.0)
+    }
+
+    /// [`Horizon::hides_rect`] with the needed slope raised by a relative
+    /// 1e-9 (plus 1e-12): a "hidden" here stays hidden under any rounding
+    /// of the order of a few ulps in the slopes compared (an incremental
+    /// bake's probe, src/scale/rebake.rs).
+    pub fn hides_rect_strictly(&self, v: DVec2, eye: f64, rect: &Rect, top: f64) -> bool {
+        self.hides_rect_by(v, eye, rect, top, 1e-9)
+    }
+
+    fn hides_rect_by(&self, v: DVec2, eye: f64, rect: &Rect, top: f64, margin: f64) -> bool {
         let nearest = v.clamp(rect.min, rect.max);
         let r_min = nearest.distance(v);
         if r_min < 1e-6 {
@@ -287,6 +299,11 @@ impl Horizon {
             let r_max = corners.iter().map(|c| c.distance(v)).fold(0.0, f64::max);
             (top - eye) / r_max
         };
+        let need = if margin > 0.0 {
+            need + need.abs() * margin + 1e-12
+        } else {
+            need
+        };
         let reference = unwrapped_angle(v, corners[0], 0.0);
         let mut lo = reference;
         let mut hi = reference;
@@ -297,6 +314,40 @@ impl Horizon {
         }
         (bin_of(lo)..=bin_of(hi)).all(|b| self.slopes[wrap(b)] >= need)
     }
+}
+
+/// The bins (unwrapped: `lo..=hi`, `lo` in `0..BINS`) that the
+/// directions from `v` to `rect` span, or `None` when `v` is (nearly) in
+/// `rect`.
+pub fn rect_bins(v: DVec2, rect: &Rect) -> Option<(i64, i64)> {
+    if v.clamp(rect.min, rect.max).distance(v) < 1e-6 {
+        return None;
+    }
+    let corners = [
+        rect.min,
+        DVec2::new(rect.max.x, rect.min.y),
+        rect.max,
+        DVec2::new(rect.min.x, rect.max.y),
+    ];
+    let reference = unwrapped_angle(v, corners[0], 0.0);
+    let (mut lo, mut hi) = (reference, reference);
+    for c in &corners[1..] {
+        let a = unwrapped_angle(v, *c, reference);
+        lo = lo.min(a);
+        hi = hi.max(a);
+    }
+    let (lo, hi) = (bin_of(lo), bin_of(hi));
+    let shift = lo.div_euclid(BINS as i64) * BINS as i64;
+    Some((lo - shift, hi - shift))
+}
+
+/// Whether two bin ranges of [`rect_bins`] share a bin (modulo a turn).
+pub fn bins_overlap(a: (i64, i64), b: (i64, i64)) -> bool {
+    let n = BINS as i64;
+    if a.1 - a.0 + 1 >= n || b.1 - b.0 + 1 >= n {
+        return true;
+    }
+    [-n, 0, n].iter().any(|&k| b.0 + k <= a.1 && a.0 <= b.1 + k)
 }
 
 #[cfg(test)]

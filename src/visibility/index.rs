@@ -78,11 +78,16 @@ pub struct SceneIndex {
     bucket_origin: DVec2,
     bucket_dims: (usize, usize),
     buckets: Vec<Vec<u32>>,
-    /// Greatest occluder height among each bucket's edges (0 when empty).
+    /// Per bucket, the edges whose first point `a` lies in it (clamped to
+    /// the grid): the horizon's chains start there and only there.
+    bucket_starts: Vec<Vec<u32>>,
+    /// Greatest occluder height among the edges starting in each bucket (0
+    /// when none).
     bucket_heights: Vec<f64>,
     /// Per bucket and chain stride (1, 2, 4), the bounding rectangle of
-    /// every chain the solver may start from the bucket's edges.
-    bucket_chain_rects: Vec<[Rect; 3]>,
+    /// every chain the solver may start from the edges starting in the
+    /// bucket; entry 3 is the union of the three.
+    bucket_chain_rects: Vec<[Rect; 4]>,
     pub objects: Vec<ObjectRaster>,
     pub pyramid: Vec<PyramidNode>,
     /// Index of the root node of the pyramid (none when there are no objects).
@@ -129,11 +134,17 @@ impl SceneIndex {
                 max: DVec2::ZERO,
             };
         }
-        let bucket_origin = bounds.min;
+        // The grid is anchored in absolute local metres (its origin a
+        // multiple of the bucket size), so a bucket covers the same square
+        // whatever else the city holds. The horizon's chains do not depend
+        // on the grid at all (see `chain_cell`); the grid only decides in
+        // which groups edges are visited.
         let bucket_size = grid_step(&bounds, BUCKET_SIZE);
-        let nx = ((bounds.width() / bucket_size).floor() as usize + 1).max(1);
-        let ny = ((bounds.height() / bucket_size).floor() as usize + 1).max(1);
+        let bucket_origin = (bounds.min / bucket_size).floor() * bucket_size;
+        let nx = (((bounds.max.x - bucket_origin.x) / bucket_size).floor() as usize + 1).max(1);
+        let ny = (((bounds.max.y - bucket_origin.y) / bucket_size).floor() as usize + 1).max(1);
         let mut buckets = vec![Vec::new(); nx * ny];
+        let mut bucket_starts = vec![Vec::new(); nx * ny];
         for (idx, e) in edges.iter().enumerate() {
             let r = Rect::of_points([&e.a, &e.b]);
             let (x0, y0) = bucket_coords(bucket_origin, bucket_size, r.min, nx, ny);
@@ -143,8 +154,10 @@ impl SceneIndex {
                     buckets[y * nx + x].push(idx as u32);
                 }
             }
+            let (x, y) = bucket_coords(bucket_origin, bucket_size, e.a, nx, ny);
+            bucket_starts[y * nx + x].push(idx as u32);
         }
-        let bucket_heights = buckets
+        let bucket_heights = bucket_starts
             .iter()
             .map(|b| {
                 b.iter()
@@ -152,11 +165,12 @@ impl SceneIndex {
                     .fold(0.0, f64::max)
             })
             .collect();
-        let bucket_chain_rects = buckets
+        let bucket_chain_rects = bucket_starts
             .iter()
             .map(|b| {
-                let mut rects = [Rect::EMPTY; 3];
-                for (level, rect) in rects.iter_mut().enumerate() {
+                let mut rects = [Rect::EMPTY; 4];
+                let mut all = Rect::EMPTY;
+                for (level, rect) in rects.iter_mut().take(3).enumerate() {
                     let stride = 1u32 << level;
                     for &e in b {
                         let edge = &edges[e as usize];
@@ -171,7 +185,9 @@ impl SceneIndex {
                             cur = c.next;
                         }
                     }
+                    all = all.union(rect);
                 }
+                rects[3] = all;
                 rects
             })
             .collect();
@@ -197,6 +213,7 @@ impl SceneIndex {
             bucket_origin,
             bucket_dims: (nx, ny),
             buckets,
+            bucket_starts,
             bucket_heights,
             bucket_chain_rects,
             objects,
@@ -257,16 +274,24 @@ impl SceneIndex {
         &self.buckets[b]
     }
 
-    /// The greatest occluder height among bucket `b`'s edges.
+    /// The edges whose first point lies in bucket `b` (each edge starts in
+    /// exactly one bucket).
+    pub fn bucket_starts(&self, b: usize) -> &[u32] {
+        &self.bucket_starts[b]
+    }
+
+    /// The greatest occluder height among the edges starting in bucket `b`.
     pub fn bucket_height(&self, b: usize) -> f64 {
         self.bucket_heights[b]
     }
 
     /// The bounding rectangle of the chains of `stride + 1` pieces that
-    /// start at every `stride`-th piece (stride 1, 2 or 4) among bucket
-    /// `b`'s edges; empty when there are none.
-    pub fn bucket_chain_rect(&self, b: usize, stride: u32) -> &Rect {
-        &self.bucket_chain_rects[b][(stride.trailing_zeros() as usize).min(2)]
+    /// start at every `stride`-th piece (stride 1, 2 or 4) among the edges
+    /// starting in bucket `b`; `None` for the union over the three strides.
+    /// Empty when there are none.
+    pub fn bucket_chain_rect(&self, b: usize, stride: Option<u32>) -> &Rect {
+        let level = stride.map_or(3, |s| (s.trailing_zeros() as usize).min(2));
+        &self.bucket_chain_rects[b][level]
     }
 
     /// The square bucket `b` covers.

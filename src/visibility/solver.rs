@@ -17,8 +17,8 @@ use glam::DVec2;
 
 use super::bitset::ObjectSet;
 use super::cullmap::CullWindow;
-use super::horizon::Horizon;
-use super::index::{NO_PARENT, SceneIndex};
+use super::horizon::{Horizon, bins_overlap, floor_i64, rect_bins};
+use super::index::{MAX_EDGE_PIECE, NO_PARENT, SceneIndex};
 use crate::model::{Rect, distance_to_segment};
 
 /// Default half-size in metres of the near-field cull map.
@@ -35,6 +35,54 @@ fn chain_stride(distance: f64) -> u32 {
         d if d < 192.0 => 2,
         _ => 4,
     }
+}
+
+/// Side in metres of the absolute squares (anchored at local (0, 0)) that
+/// decide a chain's stride: the chains starting at an edge depend only on
+/// the edge, its ring and the sample, never on the index's bucket grid.
+const STRIDE_CELL: f64 = 16.0;
+
+/// The stride square holding `p`.
+fn stride_cell(p: DVec2) -> (i64, i64) {
+    (floor_i64(p.x / STRIDE_CELL), floor_i64(p.y / STRIDE_CELL))
+}
+
+/// The stride of a chain starting at `a`, seen from a sample in stride
+/// square `vc`: by the Chebyshev ring of `a`'s square around `vc`, as
+/// [`chain_stride`] of the ring's inner distance.
+fn edge_stride(vc: (i64, i64), a: DVec2) -> u32 {
+    let c = stride_cell(a);
+    let ring = (c.0 - vc.0).abs().max((c.1 - vc.1).abs());
+    chain_stride((ring - 1).max(0) as f64 * STRIDE_CELL)
+}
+
+/// The one stride of every chain starting in `rect` (a bucket, aligned to
+/// the stride squares) seen from square `vc`, or `None` when the bucket
+/// spans squares of different strides.
+fn bucket_stride(vc: (i64, i64), rect: &Rect) -> Option<u32> {
+    let lo = stride_cell(rect.min);
+    let hi = stride_cell(rect.max);
+    let (hx, hy) = (hi.0 - 1, hi.1 - 1);
+    let gap = |c: i64, l: i64, h: i64| (l - c).max(c - h).max(0);
+    let far = |c: i64, l: i64, h: i64| (c - l).abs().max((c - h).abs());
+    let ring_min = gap(vc.0, lo.0, hx.max(lo.0)).max(gap(vc.1, lo.1, hy.max(lo.1)));
+    let ring_max = far(vc.0, lo.0, hx.max(lo.0)).max(far(vc.1, lo.1, hy.max(lo.1)));
+    let s = |ring: i64| chain_stride((ring - 1).max(0) as f64 * STRIDE_CELL);
+    (s(ring_min) == s(ring_max)).then(|| s(ring_min))
+}
+
+/// The greatest distance from `v` to the points of the chain of `pieces`
+/// pieces starting at edge `e`.
+fn chain_reach(index: &SceneIndex, v: DVec2, e: u32, pieces: u32) -> f64 {
+    let edge = &index.edges[e as usize];
+    let mut d_max = edge.a.distance(v);
+    let mut cur = e;
+    for _ in 0..pieces {
+        let c = &index.edges[cur as usize];
+        d_max = d_max.max(c.b.distance(v));
+        cur = c.next;
+    }
+    d_max
 }
 
 /// Width in metres of the distance slots of the chain queue.
@@ -293,13 +341,7 @@ impl<'a> Solver<'a> {
                         continue;
                     }
                     self.grow_horizon(v, r);
-                    let object = &index.objects[o as usize];
-                    if !drawn && object.rect.intersects(&window) {
-                        self.window.clear_heights();
-                        self.rasterise_occluders(v);
-                        drawn = true;
-                    }
-                    if !self.object_hidden(v, o, &window) {
+                    if !self.object_hidden(v, o, &window, &mut drawn) {
                         visible.insert(o as usize);
                         self.refresh_remaining(index.object_leaf[o as usize], visible);
                     }
@@ -308,22 +350,33 @@ impl<'a> Solver<'a> {
         }
     }
 
-    /// True when the object is hidden: its pixels in the window by the cull
-    /// map, and any part outside the window by the horizon.
-    fn object_hidden(&self, v: DVec2, o: u32, window: &Rect) -> bool {
-        let object = &self.index.objects[o as usize];
-        let mut outside = false;
-        if object.rect.intersects(window)
-            && !self
-                .window
-                .spans_hidden(&object.spans, object.height, &mut outside)
+    /// True when the object is hidden: by the horizon over its whole
+    /// rectangle (valid for any object, docs/METHOD.md §6), or, when it lies
+    /// wholly inside the window, pixel by pixel by the cull map. (An object
+    /// reaching out of the window needs the horizon for its outside part,
+    /// and the horizon over the whole rectangle then suffices.) So the
+    /// verdict reads only the object, the horizon at its distance and the
+    /// cull map, and a hidden pyramid node implies it for each object below.
+    fn object_hidden(&mut self, v: DVec2, o: u32, window: &Rect, drawn: &mut bool) -> bool {
+        let index = self.index;
+        let object = &index.objects[o as usize];
+        if self
+            .horizon
+            .hides_rect(v, self.eye, &object.rect, object.height)
         {
+            return true;
+        }
+        if !contains(window, &object.rect) {
             return false;
         }
-        contains(window, &object.rect)
-            || self
-                .horizon
-                .hides_rect(v, self.eye, &object.rect, object.height)
+        if !*drawn {
+            self.window.clear_heights();
+            self.rasterise_occluders(v);
+            *drawn = true;
+        }
+        let mut outside = false;
+        self.window
+            .spans_hidden(&object.spans, object.height, &mut outside)
     }
 
     /// Add to the horizon every chain whose farthest vertex is nearer than `r`.
@@ -332,13 +385,12 @@ impl<'a> Solver<'a> {
         // Sweep edge buckets out to distance r so every chain that could be
         // nearer than r is queued.
         let rings_needed = (r / index.bucket_size()).ceil() as i64 + 1;
+        let vc = stride_cell(v);
         while self.swept_rings < rings_needed && self.swept_rings < index.max_bucket_ring(v) {
             self.swept_rings += 1;
             let ring = self.swept_rings;
-            let (stamp, eye) = (self.stamp, self.eye);
-            let (edge_stamp, chains, horizon) =
-                (&mut self.edge_stamp, &mut self.chains, &self.horizon);
-            let stride = chain_stride((ring - 1).max(0) as f64 * index.bucket_size());
+            let eye = self.eye;
+            let (chains, horizon) = (&mut self.chains, &self.horizon);
             index.buckets_in_ring(v, ring, |bucket| {
                 let height = index.bucket_height(bucket);
                 if height <= eye {
@@ -348,28 +400,19 @@ impl<'a> Solver<'a> {
                 // rectangle and is no higher than the bucket's highest edge:
                 // if that is all below the horizon already, no chain of the
                 // bucket can raise it (the horizon only grows).
-                let reach = index.bucket_chain_rect(bucket, stride);
+                let reach =
+                    index.bucket_chain_rect(bucket, bucket_stride(vc, &index.bucket_rect(bucket)));
                 if reach.is_empty() || horizon.hides_rect(v, eye, reach, height) {
                     return;
                 }
-                for &e in index.bucket_edges(bucket) {
+                for &e in index.bucket_starts(bucket) {
                     let edge = &index.edges[e as usize];
-                    if !edge.ring_pos.is_multiple_of(stride)
-                        || edge.height <= eye
-                        || edge_stamp[e as usize] == stamp
-                    {
+                    let stride = edge_stride(vc, edge.a);
+                    if !edge.ring_pos.is_multiple_of(stride) || edge.height <= eye {
                         continue;
                     }
-                    edge_stamp[e as usize] = stamp;
                     let pieces = stride + 1;
-                    let mut d_max = edge.a.distance(v);
-                    let mut cur = e;
-                    for _ in 0..pieces {
-                        let c = &index.edges[cur as usize];
-                        d_max = d_max.max(c.b.distance(v));
-                        cur = c.next;
-                    }
-                    chains.push(d_max, e, pieces);
+                    chains.push(chain_reach(index, v, e, pieces), e, pieces);
                 }
             });
         }
@@ -394,6 +437,129 @@ impl<'a> Solver<'a> {
         self.ready = ready;
     }
 
+    /// True when every `(rect, top)` of `objects` is hidden from `v` by the
+    /// horizon of the chains nearer than its rectangle, with a margin against
+    /// rounding ([`Horizon::hides_rect_strictly`]). Only chains that can meet
+    /// the directions of some rectangle are added (any subset of the chains
+    /// gives a valid, lower horizon), and each rectangle is tested, nearest
+    /// first, against the chains nearer than it. So a `true` here implies
+    /// that the solver's own horizon test of each rectangle at its distance
+    /// says hidden.
+    pub fn probe_hidden(&mut self, v: DVec2, objects: &[(Rect, f64)]) -> bool {
+        let index = self.index;
+        let eye = self.eye;
+        let mut order: Vec<(f64, usize)> = Vec::with_capacity(objects.len());
+        let mut targets = Vec::with_capacity(objects.len());
+        // A chain nearer than a rectangle that meets its directions has its
+        // points there inside the hull of `v` and the rectangle, and starts
+        // within a chain's length of them.
+        let mut hull = Rect::EMPTY;
+        hull.include(v);
+        for (k, (rect, _)) in objects.iter().enumerate() {
+            let Some(bins) = rect_bins(v, rect) else {
+                return false;
+            };
+            targets.push(bins);
+            order.push((rect_distance(v, rect), k));
+            hull = hull.union(rect);
+        }
+        order.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+        // First the union of all the rectangles, at its (nearest) distance,
+        // up to the highest top: if the horizon hides that, it hides each
+        // rectangle (a sub-rectangle, no nearer, no higher; the horizon at
+        // a greater distance holds more chains), without sweeping out to
+        // the farthest one.
+        let mut union = Rect::EMPTY;
+        let mut highest = f64::NEG_INFINITY;
+        for (rect, top) in objects {
+            union = union.union(rect);
+            highest = highest.max(*top);
+        }
+        let mut tests: Vec<(f64, Rect, f64, bool)> = Vec::with_capacity(order.len() + 1);
+        if objects.len() > 1
+            && let Some(bins) = rect_bins(v, &union)
+        {
+            targets.push(bins);
+            tests.push((rect_distance(v, &union), union, highest, true));
+        }
+        tests.extend(
+            order
+                .iter()
+                .map(|&(r, k)| (r, objects[k].0, objects[k].1, false)),
+        );
+        let hull = hull.grown(4.0 * MAX_EDGE_PIECE + 1.0);
+        self.horizon.clear();
+        self.chains.clear();
+        let vc = stride_cell(v);
+        let max_ring = index.max_bucket_ring(v);
+        let mut swept = -1;
+        let mut ready = std::mem::take(&mut self.ready);
+        let mut result = true;
+        for &(r, rect, top, is_union) in &tests {
+            let rings = ((r / index.bucket_size()).ceil() as i64 + 1).min(max_ring);
+            while swept < rings {
+                swept += 1;
+                let (chains, horizon) = (&mut self.chains, &self.horizon);
+                index.buckets_in_ring(v, swept, |bucket| {
+                    let height = index.bucket_height(bucket);
+                    if height <= eye || !index.bucket_rect(bucket).intersects(&hull) {
+                        return;
+                    }
+                    let reach = index.bucket_chain_rect(bucket, None);
+                    if reach.is_empty() || horizon.hides_rect(v, eye, reach, height) {
+                        return;
+                    }
+                    if let Some(bins) = rect_bins(v, reach)
+                        && !targets.iter().any(|&t| bins_overlap(bins, t))
+                    {
+                        return;
+                    }
+                    for &e in index.bucket_starts(bucket) {
+                        let edge = &index.edges[e as usize];
+                        let stride = edge_stride(vc, edge.a);
+                        if !edge.ring_pos.is_multiple_of(stride) || edge.height <= eye {
+                            continue;
+                        }
+                        let pieces = stride + 1;
+                        chains.push(chain_reach(index, v, e, pieces), e, pieces);
+                    }
+                });
+            }
+            ready.clear();
+            self.chains.take_nearer(r, &mut ready);
+            for &(_, e, pieces) in &ready {
+                let edge = &index.edges[e as usize];
+                let mut cur = e;
+                let mut count = 0;
+                let chain = std::iter::once(edge.a).chain(std::iter::from_fn(|| {
+                    if count >= pieces {
+                        return None;
+                    }
+                    count += 1;
+                    let c = &index.edges[cur as usize];
+                    cur = c.next;
+                    Some(c.b)
+                }));
+                self.horizon.add_chain(v, eye, edge.height, chain);
+            }
+            let hidden = self.horizon.hides_rect_strictly(v, eye, &rect, top);
+            if is_union {
+                if hidden {
+                    break;
+                }
+                continue;
+            }
+            if !hidden {
+                result = false;
+                break;
+            }
+        }
+        self.ready = ready;
+        self.horizon.clear();
+        self.chains.clear();
+        result
+    }
+
     /// Fill the window with U_V from the occluder edges that reach into it,
     /// nearest first, dropping edges whose top is already hidden.
     pub fn rasterise_occluders(&mut self, v: DVec2) {
@@ -414,8 +580,25 @@ impl<'a> Solver<'a> {
                 gathered.push((distance_to_segment(v, edge.a, edge.b), e));
             }
         });
-        self.gathered
-            .sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+        // Ties in distance are broken by the edges' own coordinates, not by
+        // their numbering, so the drawing order (and the drops) depend on the
+        // edges only, not on what else the city holds.
+        let edges = &index.edges;
+        let geometry = |e: u32| {
+            let g = &edges[e as usize];
+            [g.a.x, g.a.y, g.b.x, g.b.y, g.height]
+        };
+        self.gathered.sort_by(|x, y| {
+            x.0.total_cmp(&y.0).then_with(|| {
+                let (gx, gy) = (geometry(x.1), geometry(y.1));
+                gx.iter()
+                    .zip(&gy)
+                    .map(|(p, q)| p.total_cmp(q))
+                    .find(|o| o.is_ne())
+                    .unwrap_or(std::cmp::Ordering::Equal)
+                    .then(x.1.cmp(&y.1))
+            })
+        });
         for &(_, e) in &self.gathered {
             let edge = &index.edges[e as usize];
             // The solid is on the edge's left; the eye faces the edge's outside

@@ -49,6 +49,7 @@ fn strip(squares: usize, objects: usize, frame: Frame) -> PvsData {
         })
         .collect();
     PvsData {
+        object_prints: Vec::new(),
         info: info(frame),
         object_ids: (0..objects)
             .map(|i| format!("way/{}", 1000 + i * 13))
@@ -60,6 +61,7 @@ fn strip(squares: usize, objects: usize, frame: Frame) -> PvsData {
 
 fn read_back(reader: &PvsReader) -> PvsData {
     PvsData {
+        object_prints: Vec::new(),
         info: reader.info().clone(),
         object_ids: reader.object_ids().to_vec(),
         cells: (0..reader.cell_count())
@@ -105,6 +107,7 @@ fn round_trip_equals_the_data_for_every_frame_kind() {
 #[test]
 fn empty_data_round_trips() {
     let data = PvsData {
+        object_prints: Vec::new(),
         info: info(Frame::LonLat {
             lon0: 0.0,
             lat0: 0.0,
@@ -239,6 +242,7 @@ fn cell_at_agrees_with_brute_force_on_random_points() {
     }
     let n = cells.len();
     let data = PvsData {
+        object_prints: Vec::new(),
         info: info(Frame::LonLat {
             lon0: 0.0,
             lat0: 0.0,

@@ -27,6 +27,7 @@ fn data() -> PvsData {
         ],
     ];
     PvsData {
+        object_prints: Vec::new(),
         info: BakeInfo {
             eps: 0.5,
             eye_height: 1.6,

@@ -154,6 +154,7 @@ fn write_and_open_timing_on_a_large_file() {
         })
         .collect();
     let data = PvsData {
+        object_prints: Vec::new(),
         info: BakeInfo {
             eps: 0.25,
             eye_height: 1.7,

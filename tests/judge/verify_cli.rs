@@ -56,6 +56,7 @@ fn pvs(city_path: &Path, visible: [&[&str]; 4], ids: &[&str]) -> PvsData {
         [q(100.0, -10.0), q(100.0, 10.0), q(50.0, 10.0)],
     ];
     PvsData {
+        object_prints: Vec::new(),
         info: BakeInfo {
             eps: 0.25,
             eye_height: 1.7,

@@ -46,6 +46,7 @@ fn verify(dir: &Path, pvs: &str, extra: &[&str]) -> Output {
 fn tampered(dir: &Path, name: &str, edit: impl FnOnce(&mut PvsData)) {
     let reader = PvsReader::open(&dir.join("good.pvs")).unwrap();
     let mut data = PvsData {
+        object_prints: Vec::new(),
         info: reader.info().clone(),
         object_ids: reader.object_ids().to_vec(),
         cells: reader.cell_triangles().to_vec(),

@@ -4,6 +4,7 @@
 //! suite links a few binaries instead of one per file.
 
 mod scale_diff;
+mod scale_rebake;
 mod scale_recipes;
 mod scale_resume;
 mod scale_shards;

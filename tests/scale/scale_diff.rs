@@ -19,6 +19,7 @@ fn tri(x: f64) -> [DVec2; 3] {
 
 fn data(ids: &[&str], cells: &[f64], visible: Vec<Vec<u32>>) -> PvsData {
     PvsData {
+        object_prints: Vec::new(),
         info: BakeInfo {
             eps: 1.0,
             eye_height: 1.7,

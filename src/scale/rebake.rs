@@ -1,0 +1,278 @@
+//! The incremental bake (`citypvs bake NEW_CITY --previous OLD.pvs`): the
+//! cells of the new city whose set cannot have changed since OLD.pvs are
+//! copied from it, the others are solved; the sets (and so the file) are
+//! those of a full bake of the new city. The argument is in docs/DESIGN.md,
+//! "Incremental bakes".
+//!
+//! Objects are matched by id, cells by their exact corner coordinates. The
+//! changed objects X are found with the fingerprint list of OLD.pvs
+//! (`crate::pvs::prints`): an object whose own fingerprint or whose block's
+//! fingerprint differs, or that is only in one of the two cities. A new cell
+//! keeps the old cell's set when (1) no old version of X is in it, (2) no
+//! rectangle of X (old or new) comes within the near field of the cell, and
+//! (3) every new version of X is hidden from every sample of the cell by the
+//! new scene's horizon, with a rounding margin.
+
+use std::collections::HashMap;
+use std::path::Path;
+
+use crate::error::{Error, Result};
+use crate::model::Rect;
+use crate::prepare::Scene;
+use crate::pvs::PvsReader;
+use crate::visibility::{SolveStats, VisibilityEngine};
+
+/// What an incremental bake did, for `bake --json`.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct RebakeStats {
+    /// Cells whose sets were solved.
+    pub cells_recomputed: usize,
+    /// Cells whose sets were copied from the previous file.
+    pub cells_copied: usize,
+    /// Why cells were solved: no identical cell in the previous file ...
+    pub cells_new: usize,
+    /// ... a changed object was in the old set ...
+    pub cells_saw_change: usize,
+    /// ... a changed object is within the near field of the cell ...
+    pub cells_near_change: usize,
+    /// ... or the probe could not show every new version hidden.
+    pub cells_probe_failed: usize,
+    /// Changed objects: old versions (removed or changed) and new versions
+    /// (added or changed).
+    pub objects_changed_old: usize,
+    pub objects_changed_new: usize,
+    /// Why every cell was solved, when the previous file could not be used
+    /// cell by cell (a different frame, ids that are not unique).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub full_because: Option<String>,
+    /// Seconds spent probing.
+    pub probe_seconds: f64,
+}
+
+/// Refuse a previous file baked with other settings or by another version.
+pub fn check_previous(scene: &Scene, old: &PvsReader, path: &Path) -> Result<()> {
+    let now = crate::bake::bake_info(scene);
+    let was = old.info();
+    let mut differ = Vec::new();
+    for (name, a, b) in [
+        ("eps", was.eps, now.eps),
+        ("eye-height", was.eye_height, now.eye_height),
+        ("pixel", was.pixel, now.pixel),
+        ("max-cell-edge", was.max_cell_edge, now.max_cell_edge),
+        ("margin", was.margin, now.margin),
+        ("near-field", was.near_field, now.near_field),
+        ("min-gap", was.min_gap, now.min_gap),
+    ] {
+        if a.to_bits() != b.to_bits() {
+            differ.push(format!("{name} {a} (now {b})"));
+        }
+    }
+    if was.region_hash != now.region_hash {
+        differ.push("region".into());
+    }
+    if was.tool_version != now.tool_version {
+        differ.push(format!(
+            "citypvs version {} (now {})",
+            was.tool_version, now.tool_version
+        ));
+    }
+    if !differ.is_empty() {
+        return Err(Error::mismatch(format!(
+            "--previous {}: baked with other settings: {}; bake without --previous",
+            path.display(),
+            differ.join(", ")
+        )));
+    }
+    if old.object_prints().is_empty() && !old.object_ids().is_empty() {
+        return Err(Error::mismatch(format!(
+            "--previous {}: has no object fingerprints (written by an older citypvs); bake without --previous",
+            path.display()
+        )));
+    }
+    Ok(())
+}
+
+fn key(t: &[glam::DVec2; 3]) -> [u64; 6] {
+    [
+        t[0].x.to_bits(),
+        t[0].y.to_bits(),
+        t[1].x.to_bits(),
+        t[1].y.to_bits(),
+        t[2].x.to_bits(),
+        t[2].y.to_bits(),
+    ]
+}
+
+fn unique<'a>(ids: impl Iterator<Item = &'a str>) -> Option<HashMap<&'a str, u32>> {
+    let mut map = HashMap::new();
+    for (i, id) in ids.enumerate() {
+        if map.insert(id, i as u32).is_some() {
+            return None;
+        }
+    }
+    Some(map)
+}
+
+/// Every cell's set for the new scene, copying what OLD.pvs allows.
+pub fn rebake(
+    scene: &Scene,
+    engine: &VisibilityEngine,
+    old: &PvsReader,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<(Vec<Vec<u32>>, SolveStats, RebakeStats)> {
+    let cells = &scene.cells.triangles;
+    let mut stats = RebakeStats::default();
+    let all: Vec<usize> = (0..cells.len()).collect();
+    let full = |stats: &mut RebakeStats, why: String| {
+        let (sets, solve) = engine.solve_cell_list(&all, progress);
+        stats.cells_recomputed = cells.len();
+        stats.cells_new = cells.len();
+        stats.full_because = Some(why);
+        (sets, solve, stats.clone())
+    };
+    if old.info().frame != scene.city.frame {
+        return Ok(full(
+            &mut stats,
+            "the frame (the centre of the buildings' bounding box) moved".into(),
+        ));
+    }
+    let new_prints = crate::pvs::prints::object_prints(scene);
+    let old_prints = old.object_prints();
+    let (Some(old_ids), Some(new_ids)) = (
+        unique(old.object_ids().iter().map(String::as_str)),
+        unique(scene.city.buildings.iter().map(|b| b.id.as_str())),
+    ) else {
+        return Ok(full(&mut stats, "object ids are not unique".into()));
+    };
+
+    // X: the changed objects, old and new versions.
+    let mut changed_old = vec![false; old_prints.len()];
+    let mut rects: Vec<Rect> = Vec::new();
+    for (i, id) in old.object_ids().iter().enumerate() {
+        let same = new_ids.get(id.as_str()).is_some_and(|&j| {
+            let (a, b) = (&old_prints[i], &new_prints[j as usize]);
+            a.object == b.object && a.block == b.block
+        });
+        if !same {
+            changed_old[i] = true;
+            rects.push(old_prints[i].rect());
+        }
+    }
+    let mut probes: Vec<(Rect, f64)> = Vec::new();
+    for (j, b) in scene.city.buildings.iter().enumerate() {
+        let same = old_ids.get(b.id.as_str()).is_some_and(|&i| {
+            let (a, n) = (&old_prints[i as usize], &new_prints[j]);
+            a.object == n.object && a.block == n.block
+        });
+        if !same {
+            let r = new_prints[j].rect();
+            rects.push(r);
+            probes.push((r, b.height));
+        }
+    }
+    stats.objects_changed_old = changed_old.iter().filter(|&&c| c).count();
+    stats.objects_changed_new = probes.len();
+
+    // Old cells by their exact triangles (a repeated triangle matches none).
+    let mut old_cell: HashMap<[u64; 6], Option<usize>> = HashMap::with_capacity(old.cell_count());
+    for (i, t) in old.cell_triangles().iter().enumerate() {
+        old_cell
+            .entry(key(t))
+            .and_modify(|e| *e = None)
+            .or_insert(Some(i));
+    }
+    // The near field of every sample of a cell lies in the cell's bounding
+    // box grown by the near field and a pixel (the window is pixel-aligned).
+    let reach = scene.settings.near_field + 2.0 * scene.settings.pixel;
+    let mut sets: Vec<Option<Vec<u32>>> = vec![None; cells.len()];
+    let mut candidates: Vec<(usize, Vec<u32>)> = Vec::new();
+    for (c, t) in cells.iter().enumerate() {
+        let Some(&Some(oc)) = old_cell.get(&key(t)) else {
+            stats.cells_new += 1;
+            continue;
+        };
+        let old_set = old.visible(oc)?;
+        if old_set.iter().any(|&o| changed_old[o as usize]) {
+            stats.cells_saw_change += 1;
+            continue;
+        }
+        let near = Rect::of_points(t.iter()).grown(reach);
+        if rects.iter().any(|r| r.intersects(&near)) {
+            stats.cells_near_change += 1;
+            continue;
+        }
+        // Every member of the old set is unchanged, so it is in the new
+        // city under the same id.
+        let mut mapped: Vec<u32> = old_set
+            .iter()
+            .map(|&o| new_ids[old.object_ids()[o as usize].as_str()])
+            .collect();
+        mapped.sort_unstable();
+        candidates.push((c, mapped));
+    }
+    let t = std::time::Instant::now();
+    let list: Vec<usize> = candidates.iter().map(|(c, _)| *c).collect();
+    let hidden = engine.probe_cells(&list, &probes);
+    stats.probe_seconds = t.elapsed().as_secs_f64();
+    for ((c, set), ok) in candidates.into_iter().zip(hidden) {
+        if ok {
+            sets[c] = Some(set);
+        } else {
+            stats.cells_probe_failed += 1;
+        }
+    }
+    let todo: Vec<usize> = (0..cells.len()).filter(|&c| sets[c].is_none()).collect();
+    stats.cells_recomputed = todo.len();
+    stats.cells_copied = cells.len() - todo.len();
+    progress(stats.cells_copied as u64);
+    let (solved, solve) = engine.solve_cell_list(&todo, progress);
+    for (c, set) in todo.into_iter().zip(solved) {
+        sets[c] = Some(set);
+    }
+    let sets = sets
+        .into_iter()
+        .map(|s| s.expect("every cell is copied or solved"))
+        .collect();
+    Ok((sets, solve, stats))
+}
+
+/// [`rebake`] packaged like a checkpointed bake of all cells, for the
+/// `bake` command.
+pub fn rebake_all(
+    scene: &Scene,
+    engine: &VisibilityEngine,
+    old: &PvsReader,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<(crate::scale::resume::RangeBake, RebakeStats)> {
+    let t = std::time::Instant::now();
+    let (sets, solve, stats) = rebake(scene, engine, old, progress)?;
+    let cells = scene.cells.triangles.len();
+    let mut part = crate::scale::resume::empty_part(
+        scene,
+        crate::scale::part::PartKind::Shard,
+        crate::scale::shard::ShardSpec { k: 0, n: 1 },
+        0..cells,
+    );
+    let mut tally = crate::bake::SetTally::default();
+    for set in &sets {
+        part.push_set(set);
+        tally.add(set);
+    }
+    let solve = SolveStats {
+        samples: engine.sample_count(0..cells),
+        ..solve
+    };
+    Ok((
+        crate::scale::resume::RangeBake {
+            part,
+            stats: tally.stats(scene.city.buildings.len(), &solve),
+            timing: crate::prepare::StageTime {
+                stage: "visibility",
+                seconds: t.elapsed().as_secs_f64(),
+            },
+            cells_from_checkpoint: 0,
+            checkpoints_written: 0,
+        },
+        stats,
+    ))
+}

@@ -1,0 +1,183 @@
+//! Incremental bakes (`bake --previous`): after single-building edits of a
+//! generated city (move, delete, add, raise, lower) the file is byte for
+//! byte the one a full bake of the edited city writes, while cells are
+//! really copied; a previous file of other settings, an unreadable one or a
+//! version 1 file is refused with one line.
+
+use std::path::Path;
+use std::process::Output;
+
+use serde_json::Value;
+
+fn run(dir: &Path, args: &[&str]) -> Output {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_citypvs"))
+        .current_dir(dir)
+        .args(args)
+        .env_remove("CITYPVS_SHARD")
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "citypvs {args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
+/// Shift every coordinate of a GeoJSON geometry.
+fn shift(v: &mut Value, dx: f64, dy: f64) {
+    match v {
+        Value::Array(a) if a.len() == 2 && a[0].is_number() => {
+            a[0] = (a[0].as_f64().unwrap() + dx).into();
+            a[1] = (a[1].as_f64().unwrap() + dy).into();
+        }
+        Value::Array(a) => a.iter_mut().for_each(|c| shift(c, dx, dy)),
+        _ => {}
+    }
+}
+
+/// A small linear congruential generator, so the edits are the same every run.
+struct Lcg(u64);
+impl Lcg {
+    fn next(&mut self, n: usize) -> usize {
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((self.0 >> 33) % n as u64) as usize
+    }
+}
+
+const SETTINGS: [&str; 4] = ["--eps", "2", "--threads", "2"];
+
+fn bake(dir: &Path, city: &str, out: &str, previous: Option<&str>) -> Value {
+    let mut args = vec!["bake", city, "-o", out, "--json", "-q"];
+    args.extend(SETTINGS);
+    if let Some(p) = previous {
+        args.extend(["--previous", p]);
+    }
+    let o = run(dir, &args);
+    serde_json::from_slice(&o.stdout).unwrap()
+}
+
+#[test]
+fn twenty_single_building_edits_give_the_full_bakes_bytes() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    run(
+        d,
+        &[
+            "generate",
+            "--buildings",
+            "100",
+            "--seed",
+            "11",
+            "-o",
+            "base.geojson",
+        ],
+    );
+    let base: Value =
+        serde_json::from_slice(&std::fs::read(d.join("base.geojson")).unwrap()).unwrap();
+    bake(d, "base.geojson", "base.pvs", None);
+    let kinds = ["move", "delete", "add", "raise", "lower"];
+    let mut rng = Lcg(2026);
+    let (mut copied, mut cells) = (0u64, 0u64);
+    for edit in 0..20 {
+        let kind = kinds[edit % kinds.len()];
+        let mut city = base.clone();
+        let features = city["features"].as_array_mut().unwrap();
+        let i = rng.next(features.len());
+        let height = features[i]["properties"]["height"].as_f64().unwrap_or(9.0);
+        match kind {
+            "move" => shift(&mut features[i]["geometry"]["coordinates"], 3e-5, 2e-5),
+            "delete" => {
+                features.remove(i);
+            }
+            "add" => {
+                let mut f = features[i].clone();
+                f["id"] = format!("added-{edit}").into();
+                shift(&mut f["geometry"]["coordinates"], 4e-5, -3e-5);
+                features.push(f);
+            }
+            "raise" => features[i]["properties"]["height"] = (height * 1.5 + 3.0).into(),
+            _ => features[i]["properties"]["height"] = (height * 0.5).max(2.5).into(),
+        }
+        std::fs::write(d.join("edit.geojson"), serde_json::to_vec(&city).unwrap()).unwrap();
+        bake(d, "edit.geojson", "full.pvs", None);
+        let s = bake(d, "edit.geojson", "inc.pvs", Some("base.pvs"));
+        let full = std::fs::read(d.join("full.pvs")).unwrap();
+        let inc = std::fs::read(d.join("inc.pvs")).unwrap();
+        assert!(
+            full == inc,
+            "edit {edit} ({kind} feature {i}): the incremental bake differs from the full bake ({})",
+            s["rebake"]
+        );
+        let (c, r) = (
+            s["cells_copied"].as_u64().unwrap(),
+            s["cells_recomputed"].as_u64().unwrap(),
+        );
+        assert_eq!(c + r, s["cells"].as_u64().unwrap());
+        copied += c;
+        cells += c + r;
+    }
+    // The test is not passed by solving everything again.
+    assert!(
+        copied * 10 > cells,
+        "only {copied} of {cells} cells were copied over the 20 edits"
+    );
+}
+
+#[test]
+fn a_previous_file_that_cannot_be_used_is_refused_in_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    run(
+        d,
+        &[
+            "generate",
+            "--buildings",
+            "12",
+            "--seed",
+            "3",
+            "-o",
+            "c.geojson",
+        ],
+    );
+    bake(d, "c.geojson", "c.pvs", None);
+    let refuse = |previous: &str, extra: &[&str], want: &str| {
+        let mut args = vec![
+            "bake",
+            "c.geojson",
+            "-o",
+            "n.pvs",
+            "-q",
+            "--previous",
+            previous,
+        ];
+        args.extend(SETTINGS);
+        args.extend(extra);
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_citypvs"))
+            .current_dir(d)
+            .args(&args)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr).into_owned();
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert_eq!(err.trim().lines().count(), 1, "{err}");
+        assert!(err.contains(want) && err.contains(previous), "{err}");
+        assert!(!d.join("n.pvs").exists());
+    };
+    refuse(
+        "c.pvs",
+        &["--eye-height", "2"],
+        "other settings: eye-height 1.7 (now 2)",
+    );
+    refuse("c.pvs", &["--near-field", "40"], "near-field 48 (now 40)");
+    std::fs::write(d.join("junk.pvs"), b"not a pvs file at all").unwrap();
+    refuse("junk.pvs", &[], "junk.pvs");
+    refuse("missing.pvs", &[], "cannot read");
+    let mut v1 = std::fs::read(d.join("c.pvs")).unwrap();
+    v1[8..12].copy_from_slice(&1u32.to_le_bytes());
+    std::fs::write(d.join("v1.pvs"), v1).unwrap();
+    refuse("v1.pvs", &[], "version 1");
+}
