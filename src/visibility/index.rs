@@ -6,6 +6,7 @@
 use glam::DVec2;
 
 use crate::geometry::Occluder;
+use crate::geometry::grid::{CellLists, UniformGrid};
 use crate::model::{Building, Rect, distance_to_segment, point_in_multipolygon, polygon_edges};
 
 /// One edge of a shrunk occluder level, with the solid on its left.
@@ -74,10 +75,10 @@ pub struct PyramidNode {
 pub struct SceneIndex {
     pub grid: PixelGrid,
     pub edges: Vec<OccluderEdge>,
-    bucket_size: f64,
-    bucket_origin: DVec2,
-    bucket_dims: (usize, usize),
-    buckets: Vec<Vec<u32>>,
+    /// The edge bucket grid (see [`bucket_grid`]).
+    buckets: UniformGrid,
+    /// Per bucket, the edges whose bounding box overlaps it.
+    bucket_lists: CellLists,
     /// Greatest occluder height among each bucket's edges (0 when empty).
     bucket_heights: Vec<f64>,
     /// Per bucket and chain stride (1, 2, 4), the bounding rectangle of
@@ -118,33 +119,13 @@ impl SceneIndex {
     pub fn build(buildings: &[Building], occluders: &[Occluder], pixel: f64) -> SceneIndex {
         let grid = PixelGrid { pixel };
         let edges = collect_edges(occluders);
-        let mut bounds = Rect::EMPTY;
-        for e in &edges {
-            bounds.include(e.a);
-            bounds.include(e.b);
-        }
-        if bounds.is_empty() {
-            bounds = Rect {
-                min: DVec2::ZERO,
-                max: DVec2::ZERO,
-            };
-        }
-        let bucket_origin = bounds.min;
-        let bucket_size = grid_step(&bounds, BUCKET_SIZE);
-        let nx = ((bounds.width() / bucket_size).floor() as usize + 1).max(1);
-        let ny = ((bounds.height() / bucket_size).floor() as usize + 1).max(1);
-        let mut buckets = vec![Vec::new(); nx * ny];
-        for (idx, e) in edges.iter().enumerate() {
-            let r = Rect::of_points([&e.a, &e.b]);
-            let (x0, y0) = bucket_coords(bucket_origin, bucket_size, r.min, nx, ny);
-            let (x1, y1) = bucket_coords(bucket_origin, bucket_size, r.max, nx, ny);
-            for y in y0..=y1 {
-                for x in x0..=x1 {
-                    buckets[y * nx + x].push(idx as u32);
-                }
-            }
-        }
-        let bucket_heights = buckets
+        let buckets = bucket_grid(&edges);
+        let edge_range = |i: usize| {
+            let e = &edges[i];
+            buckets.key_range(&Rect::of_points([&e.a, &e.b]))
+        };
+        let bucket_lists = CellLists::build(&buckets, edges.len(), edge_range);
+        let bucket_heights = bucket_lists
             .iter()
             .map(|b| {
                 b.iter()
@@ -152,7 +133,7 @@ impl SceneIndex {
                     .fold(0.0, f64::max)
             })
             .collect();
-        let bucket_chain_rects = buckets
+        let bucket_chain_rects = bucket_lists
             .iter()
             .map(|b| {
                 let mut rects = [Rect::EMPTY; 3];
@@ -193,10 +174,8 @@ impl SceneIndex {
         SceneIndex {
             grid,
             edges,
-            bucket_size,
-            bucket_origin,
-            bucket_dims: (nx, ny),
             buckets,
+            bucket_lists,
             bucket_heights,
             bucket_chain_rects,
             objects,
@@ -207,54 +186,26 @@ impl SceneIndex {
         }
     }
 
-    /// The bucket column and row holding `v` (possibly outside the grid).
-    fn bucket_of(&self, v: DVec2) -> (i64, i64) {
-        let q = ((v - self.bucket_origin) / self.bucket_size).floor();
-        (q.x as i64, q.y as i64)
-    }
-
     /// Side of an edge bucket in metres.
     pub fn bucket_size(&self) -> f64 {
-        self.bucket_size
+        self.buckets.cell_size()
     }
 
     /// The largest Chebyshev ring (in buckets) around `v`'s bucket that
     /// still touches the bucket grid.
     pub fn max_bucket_ring(&self, v: DVec2) -> i64 {
-        let (nx, ny) = self.bucket_dims;
-        let (x, y) = self.bucket_of(v);
-        let dx = x.abs().max((x - (nx as i64 - 1)).abs());
-        let dy = y.abs().max((y - (ny as i64 - 1)).abs());
-        dx.max(dy)
+        self.buckets.max_ring(v)
     }
 
     /// Call `f` with every bucket at Chebyshev distance exactly `ring` from
     /// the bucket containing `v`.
-    pub fn buckets_in_ring(&self, v: DVec2, ring: i64, mut f: impl FnMut(usize)) {
-        let (nx, ny) = (self.bucket_dims.0 as i64, self.bucket_dims.1 as i64);
-        let (cx, cy) = self.bucket_of(v);
-        let mut visit = |x: i64, y: i64| {
-            if x >= 0 && y >= 0 && x < nx && y < ny {
-                f((y * nx + x) as usize);
-            }
-        };
-        if ring == 0 {
-            visit(cx, cy);
-            return;
-        }
-        for x in cx - ring..=cx + ring {
-            visit(x, cy - ring);
-            visit(x, cy + ring);
-        }
-        for y in cy - ring + 1..cy + ring {
-            visit(cx - ring, y);
-            visit(cx + ring, y);
-        }
+    pub fn buckets_in_ring(&self, v: DVec2, ring: i64, f: impl FnMut(usize)) {
+        self.buckets.for_each_in_ring(v, ring, f);
     }
 
     /// The edges whose bounding box overlaps bucket `b`.
     pub fn bucket_edges(&self, b: usize) -> &[u32] {
-        &self.buckets[b]
+        self.bucket_lists.get(b)
     }
 
     /// The greatest occluder height among bucket `b`'s edges.
@@ -271,41 +222,43 @@ impl SceneIndex {
 
     /// The square bucket `b` covers.
     pub fn bucket_rect(&self, b: usize) -> Rect {
-        let nx = self.bucket_dims.0;
-        let min =
-            self.bucket_origin + DVec2::new((b % nx) as f64, (b / nx) as f64) * self.bucket_size;
-        Rect {
-            min,
-            max: min + DVec2::splat(self.bucket_size),
-        }
+        self.buckets.cell_rect(b)
     }
 
     /// Call `f` with the index of every edge whose bucket overlaps `rect`
     /// (an edge may be reported more than once).
     pub fn edges_near(&self, rect: &Rect, mut f: impl FnMut(u32)) {
-        let (nx, ny) = self.bucket_dims;
-        let lo = (rect.min - self.bucket_origin) / self.bucket_size;
-        let hi = (rect.max - self.bucket_origin) / self.bucket_size;
-        if hi.x < 0.0 || hi.y < 0.0 || lo.x >= nx as f64 || lo.y >= ny as f64 {
+        if self.buckets.misses(rect) {
             return;
         }
-        let (x0, y0) = bucket_coords(self.bucket_origin, self.bucket_size, rect.min, nx, ny);
-        let (x1, y1) = bucket_coords(self.bucket_origin, self.bucket_size, rect.max, nx, ny);
-        for y in y0..=y1 {
-            for x in x0..=x1 {
-                for &e in &self.buckets[y * nx + x] {
-                    f(e);
-                }
+        self.buckets.for_each_in_rect(rect, |b| {
+            for &e in self.bucket_lists.get(b) {
+                f(e);
             }
-        }
+        });
     }
 }
 
-fn bucket_coords(origin: DVec2, size: f64, p: DVec2, nx: usize, ny: usize) -> (usize, usize) {
-    let q = (p - origin) / size;
-    let x = (q.x.floor().max(0.0) as usize).min(nx - 1);
-    let y = (q.y.floor().max(0.0) as usize).min(ny - 1);
-    (x, y)
+/// The edge bucket grid: [`BUCKET_SIZE`] squares (grown by [`grid_step`]
+/// over a very wide city) from the lower left corner of the edges' bounding
+/// box, enough of them that the box's far sides lie inside the grid.
+fn bucket_grid(edges: &[OccluderEdge]) -> UniformGrid {
+    let mut bounds = Rect::EMPTY;
+    for e in edges {
+        bounds.include(e.a);
+        bounds.include(e.b);
+    }
+    if bounds.is_empty() {
+        bounds = Rect {
+            min: DVec2::ZERO,
+            max: DVec2::ZERO,
+        };
+    }
+    let origin = bounds.min;
+    let size = grid_step(&bounds, BUCKET_SIZE);
+    let nx = (bounds.width() / size).floor() as usize + 1;
+    let ny = (bounds.height() / size).floor() as usize + 1;
+    UniformGrid::square(origin, size, nx, ny)
 }
 
 /// Longest occluder edge piece: long walls are cut so that a short chain of
@@ -407,15 +360,17 @@ fn build_pyramid(objects: &[ObjectRaster]) -> (Vec<PyramidNode>, Option<u32>) {
         bounds = bounds.union(&o.rect);
     }
     let leaf = grid_step(&bounds, PYRAMID_LEAF);
-    let mut nx = ((bounds.width() / leaf).floor() as usize + 1).max(1);
-    let mut ny = ((bounds.height() / leaf).floor() as usize + 1).max(1);
-    let mut level: Vec<Option<PyramidNode>> = vec![None; nx * ny];
+    let leaves = UniformGrid::square(
+        bounds.min,
+        leaf,
+        (bounds.width() / leaf).floor() as usize + 1,
+        (bounds.height() / leaf).floor() as usize + 1,
+    );
+    let (mut nx, mut ny) = (leaves.nx(), leaves.ny());
+    let mut level: Vec<Option<PyramidNode>> = vec![None; leaves.len()];
     for (idx, o) in objects.iter().enumerate() {
         let c = (o.rect.min + o.rect.max) * 0.5;
-        let q = (c - bounds.min) / leaf;
-        let x = (q.x.floor().max(0.0) as usize).min(nx - 1);
-        let y = (q.y.floor().max(0.0) as usize).min(ny - 1);
-        let node = level[y * nx + x].get_or_insert_with(|| PyramidNode {
+        let node = level[leaves.index(leaves.key(c))].get_or_insert_with(|| PyramidNode {
             rect: Rect::EMPTY,
             max_height: 0.0,
             children: Vec::new(),
