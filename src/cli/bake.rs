@@ -89,6 +89,21 @@ fn load_city(args: &BakeArgs) -> Result<(City, String)> {
             path.display().to_string(),
         )),
         None => {
+            // The embedded city is lon/lat GeoJSON with every height given:
+            // flags about reading some other file cannot apply to it.
+            let input = &args.input;
+            for (given, flag) in [
+                (input.metric, "--metric"),
+                (input.format.is_some(), "--format"),
+                (input.default_height.is_some(), "--default-height"),
+            ] {
+                if given {
+                    return Err(crate::Error::usage(format!(
+                        "{flag} applies to reading a city file, and none was given (the embedded \
+                         default city is lon/lat GeoJSON with every height known)"
+                    )));
+                }
+            }
             let name = format!(
                 "<default city: {DEFAULT_CITY_BUILDINGS} generated buildings, seed {DEFAULT_CITY_SEED}>"
             );

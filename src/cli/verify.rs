@@ -51,11 +51,12 @@ pub struct VerifyArgs {
     pub json: bool,
     /// The region file the bake was given with --region (the cells are
     /// compared with the ones prepared for the city with it).
-    #[arg(long, value_name = "FILE")]
+    #[arg(long, value_name = "FILE", conflicts_with = "any_cells")]
     pub region: Option<PathBuf>,
     /// Judge the file's cells as they are, without checking that they are
     /// the cells citypvs prepares for this city with the file's settings
-    /// (for PVS files made by hand or by another tool).
+    /// (for PVS files made by hand or by another tool). Not with --region,
+    /// which only serves that check.
     #[arg(long)]
     pub any_cells: bool,
 }

@@ -11,7 +11,7 @@
 pub mod blocks;
 pub mod codec;
 mod grid;
-pub use grid::triangle_contains;
+pub use grid::{CellGrid, triangle_contains};
 mod read;
 #[doc(hidden)]
 pub mod v1;
