@@ -141,6 +141,14 @@ fn ring_ccw(r: &layout::GridRect) -> Vec<DVec2> {
     ]
 }
 
+/// A grid rectangle kept free of buildings, in local metres.
+fn open_area(r: &layout::GridRect) -> Polygon {
+    Polygon {
+        exterior: ring_ccw(r),
+        holes: Vec::new(),
+    }
+}
+
 /// A generated city in local metres.
 #[derive(Clone, Debug)]
 pub struct GeneratedCity {
@@ -194,14 +202,10 @@ pub fn generate_city(params: &GenerateParams) -> GeneratedCity {
             }
         }
         if out.len() == n {
-            let open = |r: &layout::GridRect| Polygon {
-                exterior: ring_ccw(r),
-                holes: Vec::new(),
-            };
             return GeneratedCity {
                 buildings: out,
-                square: open(&plan.square),
-                river: open(&plan.river),
+                square: open_area(&plan.square),
+                river: open_area(&plan.river),
             };
         }
         half *= 2.0;
