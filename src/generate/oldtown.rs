@@ -15,9 +15,7 @@ use rand_chacha::ChaCha8Rng;
 
 use super::layout::GridRect;
 use super::layout::cuts;
-use super::{
-    GenerateParams, GeneratedBuilding, GeneratedCity, Kind, layout, open_area, stream, to_local,
-};
+use super::{GenerateParams, GeneratedCity, Kind, fill_plan, to_local};
 use crate::model::{Polygon, ring_signed_area2};
 
 /// Depth of the perimeter rows from the street, metres.
@@ -52,36 +50,12 @@ struct Drawn {
 
 /// The old-town city: exactly `params.buildings` buildings, kind `row`.
 pub fn generate_old_town(params: &GenerateParams) -> GeneratedCity {
-    let n = params.buildings;
-    let radius =
-        (n.max(1) as f64 / super::BUILDINGS_PER_KM2 / std::f64::consts::PI).sqrt() * 1000.0;
-    let mut half = 0.8 * radius + 300.0;
-    loop {
-        let plan = layout::plan(&mut stream(params.seed, 0), half, radius);
-        let mut out: Vec<GeneratedBuilding> = Vec::with_capacity(n);
-        'blocks: for block in plan.blocks.iter().filter(|b| !b.square) {
-            let id = 1 + ((block.row as u64) << 32 | block.column as u64);
-            for b in fill_block(&mut stream(params.seed, id), block.rect) {
-                if out.len() == n {
-                    break 'blocks;
-                }
-                out.push(GeneratedBuilding {
-                    id: format!("b{}", out.len()),
-                    kind: Kind::Row,
-                    height: b.height,
-                    footprint: to_polygon(&b),
-                });
-            }
-        }
-        if out.len() == n {
-            return GeneratedCity {
-                buildings: out,
-                square: open_area(&plan.square),
-                river: open_area(&plan.river),
-            };
-        }
-        half *= 2.0;
-    }
+    fill_plan(params, 0.8, |rng, rect| {
+        fill_block(rng, rect)
+            .iter()
+            .map(|b| (Kind::Row, b.height, to_polygon(b)))
+            .collect()
+    })
 }
 
 fn to_polygon(b: &Drawn) -> Polygon {
