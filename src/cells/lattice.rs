@@ -4,7 +4,7 @@
 
 use glam::DVec2;
 
-use crate::geometry::grid::{CellLists, UniformGrid};
+use crate::grid::{CellLists, UniformGrid};
 use crate::model::{MultiPolygon, Rect, distance_to_segment, polygon_edges};
 
 /// Most buckets the segment grid may have (it coarsens beyond).

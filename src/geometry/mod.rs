@@ -5,11 +5,9 @@
 //! The types and functions below are the interface; the work is done in
 //! `merge` (blocks and levels) and `erode` (conservative erosion), with
 //! [`convert`] translating to and from `geo` for the boolean operations.
-//! [`grid`] is the one uniform grid every bucket index of the crate uses.
 
 pub mod convert;
 mod erode;
-pub mod grid;
 mod merge;
 
 pub use erode::{EROSION_SAFETY_MARGIN, MIN_PIECE_AREA};

@@ -4,7 +4,7 @@
 
 use glam::DVec2;
 
-use crate::geometry::grid::{CellLists, Key, UniformGrid};
+use crate::grid::{CellLists, Key, UniformGrid};
 
 /// Grid squares list the triangles whose bounding box overlaps them.
 pub struct CellGrid {

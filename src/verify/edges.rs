@@ -4,7 +4,7 @@
 
 use glam::DVec2;
 
-use crate::geometry::grid::{CellLists, Key, UniformGrid};
+use crate::grid::{CellLists, Key, UniformGrid};
 use crate::model::{Building, Rect, multipolygon_bounds, polygon_edges};
 
 /// One footprint edge of one building, `a` to `b`.

@@ -6,7 +6,7 @@
 use glam::DVec2;
 
 use crate::geometry::Occluder;
-use crate::geometry::grid::{CellLists, UniformGrid};
+use crate::grid::{CellLists, UniformGrid};
 use crate::model::{Building, Rect, distance_to_segment, point_in_multipolygon, polygon_edges};
 
 /// One edge of a shrunk occluder level, with the solid on its left.
