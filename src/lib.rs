@@ -44,6 +44,7 @@ pub mod frame;
 pub mod generate;
 #[cfg(feature = "bake")]
 pub mod geometry;
+pub mod grid;
 #[cfg(feature = "bake")]
 pub mod input;
 pub mod model;

@@ -38,6 +38,20 @@ pub fn cell_params(settings: &Settings) -> CellParams {
     }
 }
 
+/// [`prepare`] a city that took `read_seconds` to read: the scene's
+/// timings start with that "read" stage.
+pub fn prepare_read(city: City, read_seconds: f64, settings: &Settings) -> Result<Scene> {
+    let mut scene = prepare(city, settings)?;
+    scene.timings.insert(
+        0,
+        StageTime {
+            stage: "read",
+            seconds: read_seconds,
+        },
+    );
+    Ok(scene)
+}
+
 /// Run merge, shrink and triangulation over a city.
 pub fn prepare(city: City, settings: &Settings) -> Result<Scene> {
     let mut timings = Vec::new();

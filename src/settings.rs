@@ -210,6 +210,31 @@ impl Settings {
         }
     }
 
+    /// The seven numbers, each with the name of its command-line flag, in
+    /// one fixed order: for anything that lists or compares settings.
+    pub fn named_numbers(&self) -> [(&'static str, f64); 7] {
+        [
+            ("eps", self.eps),
+            ("pixel", self.pixel),
+            ("eye-height", self.eye_height),
+            ("max-cell-edge", self.max_cell_edge),
+            ("margin", self.margin),
+            ("near-field", self.near_field),
+            ("min-gap", self.min_gap),
+        ]
+    }
+
+    /// The numbers that differ bit for bit from `other`'s: name, this
+    /// value, the other value.
+    pub fn changed_numbers(&self, other: &Settings) -> Vec<(&'static str, f64, f64)> {
+        self.named_numbers()
+            .into_iter()
+            .zip(other.named_numbers())
+            .filter(|((_, a), (_, b))| a.to_bits() != b.to_bits())
+            .map(|((name, a), (_, b))| (name, a, b))
+            .collect()
+    }
+
     /// Largest spacing of samples along a cell edge: 2 eps.
     pub fn sample_spacing(&self) -> f64 {
         2.0 * self.eps

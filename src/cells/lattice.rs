@@ -4,6 +4,7 @@
 
 use glam::DVec2;
 
+use crate::grid::{CellLists, UniformGrid};
 use crate::model::{MultiPolygon, Rect, distance_to_segment, polygon_edges};
 
 /// Most buckets the segment grid may have (it coarsens beyond).
@@ -50,15 +51,13 @@ pub fn lattice_points(
 /// The outline segments bucketed on a uniform grid.
 struct SegmentGrid {
     segments: Vec<(DVec2, DVec2)>,
-    buckets: Vec<Vec<u32>>,
-    origin: DVec2,
-    size: f64,
-    nx: usize,
-    ny: usize,
+    grid: UniformGrid,
+    lists: CellLists,
 }
 
 impl SegmentGrid {
-    /// Buckets at least `min_size` wide (and few enough) over `bounds`.
+    /// Buckets at least `min_size` wide (and few enough) from the lower left
+    /// corner of `bounds`, covering it.
     fn new(free: &MultiPolygon, bounds: Rect, min_size: f64) -> SegmentGrid {
         let mut size = min_size
             .max((bounds.width() * bounds.height() / MAX_BUCKETS).sqrt())
@@ -69,52 +68,36 @@ impl SegmentGrid {
         while buckets(size) > MAX_BUCKETS {
             size *= 2.0;
         }
-        let nx = ((bounds.width() / size).ceil() as usize).max(1);
-        let ny = ((bounds.height() / size).ceil() as usize).max(1);
-        let mut grid = SegmentGrid {
-            segments: free.iter().flat_map(polygon_edges).collect(),
-            buckets: vec![Vec::new(); nx * ny],
-            origin: bounds.min,
-            size,
-            nx,
-            ny,
-        };
-        for k in 0..grid.segments.len() {
-            let (a, b) = grid.segments[k];
-            let (x0, y0) = grid.bucket_of(a.min(b));
-            let (x1, y1) = grid.bucket_of(a.max(b));
-            for y in y0..=y1 {
-                for x in x0..=x1 {
-                    grid.buckets[y * nx + x].push(k as u32);
-                }
-            }
+        let (nx, ny) = UniformGrid::cells_to_cover(&bounds, size);
+        let grid = UniformGrid::square(bounds.min, size, nx, ny);
+        let segments: Vec<(DVec2, DVec2)> = free.iter().flat_map(polygon_edges).collect();
+        let lists = CellLists::build(&grid, segments.len(), |k| {
+            let (a, b) = segments[k];
+            (grid.key(a.min(b)), grid.key(a.max(b)))
+        });
+        SegmentGrid {
+            segments,
+            grid,
+            lists,
         }
-        grid
-    }
-
-    fn bucket_of(&self, p: DVec2) -> (usize, usize) {
-        let c = ((p - self.origin) / self.size).floor();
-        (
-            (c.x.max(0.0) as usize).min(self.nx - 1),
-            (c.y.max(0.0) as usize).min(self.ny - 1),
-        )
     }
 
     /// Whether any segment comes closer than `distance` to `p`.
     fn any_within(&self, p: DVec2, distance: f64) -> bool {
-        let reach = (distance / self.size).ceil() as usize;
-        let (cx, cy) = self.bucket_of(p);
-        for y in cy.saturating_sub(reach)..=(cy + reach).min(self.ny - 1) {
-            for x in cx.saturating_sub(reach)..=(cx + reach).min(self.nx - 1) {
-                for &k in &self.buckets[y * self.nx + x] {
-                    let (a, b) = self.segments[k as usize];
-                    if distance_to_segment(p, a, b) < distance {
-                        return true;
-                    }
-                }
-            }
-        }
-        false
+        let g = &self.grid;
+        let reach = (distance / g.cell_size()).ceil() as usize;
+        let (cx, cy) = g.key(p);
+        let lo = (cx.saturating_sub(reach), cy.saturating_sub(reach));
+        let hi = ((cx + reach).min(g.nx() - 1), (cy + reach).min(g.ny() - 1));
+        let mut found = false;
+        g.for_each_in_range((lo, hi), |k| {
+            found = found
+                || self.lists.get(k).iter().any(|&s| {
+                    let (a, b) = self.segments[s as usize];
+                    distance_to_segment(p, a, b) < distance
+                });
+        });
+        found
     }
 }
 
@@ -138,10 +121,10 @@ mod tests {
         let bounds = Rect::of_points(strip[0].exterior.iter());
         let grid = SegmentGrid::new(&strip, bounds, 0.01);
         assert!(
-            (grid.nx * grid.ny) as f64 <= MAX_BUCKETS,
+            grid.grid.len() as f64 <= MAX_BUCKETS,
             "{} x {}",
-            grid.nx,
-            grid.ny
+            grid.grid.nx(),
+            grid.grid.ny()
         );
         assert!(grid.any_within(DVec2::new(5e6, 0.5), 0.6));
         assert!(!grid.any_within(DVec2::new(5e6, 0.5), 0.4));

@@ -2,7 +2,6 @@
 //! cell's PVS (or one shard's cells), saving checkpoints and resuming from
 //! one, write the `.pvs` (or shard) file atomically and print a summary.
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -11,7 +10,7 @@ use clap::Args;
 use super::common::{InputArgs, SceneArgs, ViewArgs};
 use crate::Result;
 use crate::input::{City, read_city, read_city_bytes};
-use crate::prepare::{StageTime, prepare};
+use crate::prepare::{StageTime, prepare_read};
 use crate::scale::resume::{bake_range, remove_checkpoint};
 use crate::scale::shard::{ShardArg, ShardSpec};
 
@@ -100,6 +99,21 @@ fn load_city(args: &BakeArgs) -> Result<(City, String)> {
             path.display().to_string(),
         )),
         None => {
+            // The embedded city is lon/lat GeoJSON with every height given:
+            // flags about reading some other file cannot apply to it.
+            let input = &args.input;
+            for (given, flag) in [
+                (input.metric, "--metric"),
+                (input.format.is_some(), "--format"),
+                (input.default_height.is_some(), "--default-height"),
+            ] {
+                if given {
+                    return Err(crate::Error::usage(format!(
+                        "{flag} applies to reading a city file, and none was given (the embedded \
+                         default city is lon/lat GeoJSON with every height known)"
+                    )));
+                }
+            }
             let name = format!(
                 "<default city: {DEFAULT_CITY_BUILDINGS} generated buildings, seed {DEFAULT_CITY_SEED}>"
             );
@@ -171,14 +185,7 @@ fn run_in_pool(args: &BakeArgs, threads: usize) -> Result<i32> {
     // After reading (a missing input is the first thing to say), before the work.
     crate::atomic::check_output(&output, &inputs)?;
     let settings = super::common::settings(&args.scene, Some(&args.view), &city.frame)?;
-    let mut scene = prepare(city, &settings)?;
-    scene.timings.insert(
-        0,
-        StageTime {
-            stage: "read",
-            seconds: read_seconds,
-        },
-    );
+    let scene = prepare_read(city, read_seconds, &settings)?;
 
     let engine = crate::visibility::VisibilityEngine::new(&scene)?;
     let cells = scene.cells.triangles.len();
@@ -280,16 +287,9 @@ fn run_in_pool(args: &BakeArgs, threads: usize) -> Result<i32> {
         cells_copied: rebake.as_ref().map_or(0, |r| r.cells_copied),
         rebake,
     };
-    let mut out = super::common::summary_stream(&[&output]);
-    if args.json {
-        say!(
-            out,
-            "{}",
-            serde_json::to_string(&summary).expect("summary serialises")
-        );
-    } else {
-        print_summary(&mut out, &summary);
-    }
+    super::common::print_summary(&[&output], args.json, &summary, |out| {
+        print_summary(out, &summary)
+    });
     Ok(0)
 }
 

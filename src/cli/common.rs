@@ -1,6 +1,7 @@
 //! Arguments shared by several subcommands (input reading, scene preparation)
 //! and the helpers that turn them into library parameters.
 
+use std::io::Write;
 use std::path::PathBuf;
 
 use clap::Args;
@@ -188,5 +189,22 @@ pub fn summary_stream(outputs: &[&std::path::Path]) -> Box<dyn std::io::Write> {
         Box::new(std::io::stderr())
     } else {
         Box::new(std::io::stdout())
+    }
+}
+
+/// Print a command's summary on its [`summary_stream`]: as one JSON object
+/// with `--json`, else as the text `text` writes.
+pub fn print_summary<T: serde::Serialize>(
+    outputs: &[&std::path::Path],
+    json: bool,
+    summary: &T,
+    text: impl FnOnce(&mut dyn std::io::Write),
+) {
+    let mut out = summary_stream(outputs);
+    if json {
+        let line = serde_json::to_string(summary).expect("summary serialises");
+        let _ = writeln!(out, "{line}");
+    } else {
+        text(&mut out);
     }
 }

@@ -1,6 +1,5 @@
 //! `citypvs prepare`: read a city, build blocks, occluders and cells, report.
 
-use std::io::Write;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -9,7 +8,7 @@ use clap::Args;
 use super::common::{InputArgs, SceneArgs};
 use crate::Result;
 use crate::input::read_city;
-use crate::prepare::{StageTime, prepare};
+use crate::prepare::prepare_read;
 
 #[derive(Args, Debug)]
 pub struct PrepareArgs {
@@ -48,14 +47,7 @@ pub fn run(args: &PrepareArgs) -> Result<i32> {
         crate::atomic::check_output(output, &inputs)?;
     }
     let settings = super::common::settings(&args.scene, None, &city.frame)?;
-    let mut scene = prepare(city, &settings)?;
-    scene.timings.insert(
-        0,
-        StageTime {
-            stage: "read",
-            seconds: read_seconds,
-        },
-    );
+    let scene = prepare_read(city, read_seconds, &settings)?;
     if let Some(path) = &args.export_cells {
         crate::atomic::write_atomically(path, crate::prepare::cells_geojson(&scene).as_bytes())?;
     }
@@ -66,15 +58,8 @@ pub fn run(args: &PrepareArgs) -> Result<i32> {
         )?;
     }
     let summary = crate::prepare::summary(&scene);
-    let mut out = super::common::summary_stream(&outputs);
-    if args.json {
-        say!(
-            out,
-            "{}",
-            serde_json::to_string(&summary).expect("summary serialises")
-        );
-    } else {
+    super::common::print_summary(&outputs, args.json, &summary, |out| {
         let _ = write!(out, "{}", summary.to_text());
-    }
+    });
     Ok(0)
 }

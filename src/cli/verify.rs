@@ -2,7 +2,6 @@
 //! cells with the independent point-visibility check, print the verdict and
 //! exit 1 when some building seen from a cell is missing from its PVS.
 
-use std::collections::HashMap;
 use std::path::PathBuf;
 
 use clap::Args;
@@ -12,7 +11,8 @@ use super::common::InputArgs;
 use crate::input::read_city;
 use crate::pvs::PvsReader;
 use crate::verify::{
-    DEFAULT_CELLS, DEFAULT_SAMPLES, DEFAULT_SEED, VerifyOptions, VerifyReport, verify_with_progress,
+    DEFAULT_CELLS, DEFAULT_SAMPLES, DEFAULT_SEED, FileCheck, FileUnderTest, VerifyOptions,
+    VerifyReport, verify_file,
 };
 use crate::{Error, Result};
 
@@ -51,55 +51,14 @@ pub struct VerifyArgs {
     pub json: bool,
     /// The region file the bake was given with --region (the cells are
     /// compared with the ones prepared for the city with it).
-    #[arg(long, value_name = "FILE")]
+    #[arg(long, value_name = "FILE", conflicts_with = "any_cells")]
     pub region: Option<PathBuf>,
     /// Judge the file's cells as they are, without checking that they are
     /// the cells citypvs prepares for this city with the file's settings
-    /// (for PVS files made by hand or by another tool).
+    /// (for PVS files made by hand or by another tool). Not with --region,
+    /// which only serves that check.
     #[arg(long)]
     pub any_cells: bool,
-}
-
-/// The file's cells must be the ones `bake` makes for this city with the
-/// header's settings: same count, same triangles, in the same order.
-fn check_cells(
-    args: &VerifyArgs,
-    city: &crate::input::City,
-    reader: &PvsReader,
-    pvs_name: &str,
-) -> Result<()> {
-    let info = reader.info();
-    let region = match &args.region {
-        Some(path) => Some(crate::input::read_region(path, &city.frame)?),
-        None => None,
-    };
-    let settings = info.settings(region).map_err(|e| e.context(pvs_name))?;
-    let scene = crate::prepare::prepare(city.clone(), &settings)?;
-    let ours = &scene.cells.triangles;
-    let theirs = reader.cell_triangles();
-    if *ours == theirs {
-        return Ok(());
-    }
-    let differ = match ours.iter().zip(&theirs).position(|(a, b)| a != b) {
-        Some(c) => format!("cell {c} differs"),
-        None => format!("{} cells against {}", theirs.len(), ours.len()),
-    };
-    Err(Error::mismatch(format!(
-        "{pvs_name}: its {} cells are not the {} cells prepared for {} with the file's settings \
-         (--eps {} --max-cell-edge {} --margin {}{}; {differ}): a different city, input flags or --region, \
-         or a file not made by `citypvs bake` (--any-cells judges its cells as they are)",
-        theirs.len(),
-        ours.len(),
-        args.city.display(),
-        info.eps,
-        info.max_cell_edge,
-        info.margin,
-        if args.region.is_some() {
-            " and this --region"
-        } else {
-            ""
-        },
-    )))
 }
 
 /// What `verify --json` prints.
@@ -138,63 +97,13 @@ pub fn run(args: &VerifyArgs) -> Result<i32> {
 fn run_in_pool(args: &VerifyArgs, threads: usize) -> Result<i32> {
     let city = read_city(&args.city, &args.input.options())?;
     let pvs_name = args.pvs.display().to_string();
+    let city_name = args.city.display().to_string();
     let reader = PvsReader::open(&args.pvs)?;
     let info = reader.info();
-    if reader.cell_count() == 0 {
-        return Err(Error::mismatch(format!(
-            "{pvs_name}: the file has no cells: there is nothing to check"
-        )));
-    }
-    if info.frame != city.frame {
-        return Err(Error::mismatch(format!(
-            "{pvs_name}: baked in the frame \"{}\" but {} reads in \"{}\"; read the city with the flags the bake used",
-            info.frame.describe(),
-            args.city.display(),
-            city.frame.describe()
-        )));
-    }
-    let by_id: HashMap<&str, u32> = city
-        .buildings
-        .iter()
-        .enumerate()
-        .map(|(i, b)| (b.id.as_str(), i as u32))
-        .collect();
-    let object_to_building = reader
-        .object_ids()
-        .iter()
-        .enumerate()
-        .map(|(k, id)| {
-            by_id.get(id.as_str()).copied().ok_or_else(|| {
-                Error::mismatch(format!(
-                    "{pvs_name}: object {k} (id {id}) is not a building of {}: wrong city or wrong file",
-                    args.city.display()
-                ))
-            })
-        })
-        .collect::<Result<Vec<u32>>>()?;
-    if object_to_building.len() != city.buildings.len() {
-        return Err(Error::mismatch(format!(
-            "{pvs_name}: has {} objects but {} has {} buildings: wrong city or wrong file",
-            object_to_building.len(),
-            args.city.display(),
-            city.buildings.len()
-        )));
-    }
-    if !args.any_cells {
-        check_cells(args, &city, &reader, &pvs_name)?;
-    }
-    let mut visible = Vec::with_capacity(reader.cell_count());
-    reader
-        .for_each_visible(|_, set| {
-            let mut set: Vec<u32> = set
-                .iter()
-                .map(|&o| object_to_building[o as usize])
-                .collect();
-            set.sort_unstable();
-            visible.push(set);
-            Ok(())
-        })
-        .map_err(|e| e.context(&pvs_name))?;
+    let region = match &args.region {
+        Some(path) => Some(crate::input::read_region(path, &city.frame)?),
+        None => None,
+    };
     let options = VerifyOptions {
         cells: if args.all { None } else { Some(args.cells) },
         samples: args.samples,
@@ -210,33 +119,22 @@ fn run_in_pool(args: &VerifyArgs, threads: usize) -> Result<i32> {
             b.inc(n)
         }
     };
-    let mut report = verify_with_progress(
-        &city.buildings,
-        &reader.cell_triangles(),
-        info.eye_height,
-        &visible,
-        &options,
-        &tick,
-    );
+    let file = FileUnderTest {
+        city: &city,
+        city_name: &city_name,
+        reader: &reader,
+        pvs_name: &pvs_name,
+    };
+    let check = FileCheck {
+        options,
+        cells_must_match: !args.any_cells,
+        region,
+    };
+    let report = verify_file(&file, check, &tick);
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
-    let to_input = |p: [f64; 3]| {
-        let (x, y) = info.frame.to_input(glam::DVec2::new(p[0], p[1]));
-        Some([x, y])
-    };
-    for v in &mut report.violations {
-        v.viewpoint_input = to_input(v.viewpoint);
-        v.witness_input = to_input(v.witness);
-    }
-    let judged = report.judged_viewpoints();
-    if report.cells_checked == 0 || judged == 0 {
-        return Err(Error::mismatch(format!(
-            "{pvs_name}: nothing was judged: {} cells checked, {} viewpoints, all of them inside buildings \
-             (the cells overlap the footprints: wrong city or wrong file?)",
-            report.cells_checked, report.viewpoints
-        )));
-    }
+    let report = report?;
     let passed = report.passed();
     let verdict = Verdict {
         city: args.city.display().to_string(),

@@ -10,7 +10,7 @@ use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 
 use super::Kind;
-use super::layout::GridRect;
+use super::layout::{GridRect, cuts};
 
 /// Widths of row buildings along the street, metres.
 const ROW_WIDTH: (f64, f64) = (8.0, 25.0);
@@ -85,21 +85,6 @@ fn low_height(rng: &mut ChaCha8Rng, storeys: (u32, u32)) -> f64 {
     (h * 10.0).round() / 10.0
 }
 
-/// Cut positions from `start` to `end` (both included, exactly) into pieces
-/// of width within ROW_WIDTH; `end - start` must be at least ROW_WIDTH.0.
-/// (Works because ROW_WIDTH.1 - ROW_WIDTH.0 >= ROW_WIDTH.0.)
-fn cuts(rng: &mut ChaCha8Rng, start: f64, end: f64) -> Vec<f64> {
-    let mut out = vec![start];
-    let mut pos = start;
-    while end - pos > ROW_WIDTH.1 {
-        let w = rng.random_range(ROW_WIDTH.0..=ROW_WIDTH.1.min(end - pos - ROW_WIDTH.0));
-        pos += w;
-        out.push(pos);
-    }
-    out.push(end);
-    out
-}
-
 /// Perimeter rows around an open inner yard. Each side has its own depth.
 /// The south and north rows run the full block width, with corner buildings
 /// exactly as wide as the west and east rows are deep; the west and east rows
@@ -130,13 +115,13 @@ fn rows(rng: &mut ChaCha8Rng, b: GridRect) -> Vec<GridBuilding> {
     // South and north: corner, middle cuts, corner.
     for (v0, v1) in [(b.v0, iv0), (iv1, b.v1)] {
         let mut c = vec![b.u0];
-        c.extend(cuts(rng, iu0, iu1));
+        c.extend(cuts(rng, iu0, iu1, ROW_WIDTH));
         c.push(b.u1);
         push_row(rng, &c, &|a, z| rect(a, v0, z, v1));
     }
     // West and east, between the south and north rows.
     for (u0, u1) in [(b.u0, iu0), (iu1, b.u1)] {
-        let c = cuts(rng, iv0, iv1);
+        let c = cuts(rng, iv0, iv1, ROW_WIDTH);
         push_row(rng, &c, &|a, z| rect(u0, a, u1, z));
     }
     out

@@ -161,3 +161,18 @@ pub fn plan(rng: &mut ChaCha8Rng, half: f64, radius: f64) -> Layout {
         square,
     }
 }
+
+/// Cut positions from `start` to `end` (both included, exactly) into pieces
+/// whose widths lie within `width`; `end - start` must be at least
+/// `width.0` (and `width.1 - width.0 >= width.0`, so that a piece always fits).
+pub fn cuts(rng: &mut ChaCha8Rng, start: f64, end: f64, width: (f64, f64)) -> Vec<f64> {
+    let mut out = vec![start];
+    let mut pos = start;
+    while end - pos > width.1 {
+        let w = rng.random_range(width.0..=width.1.min(end - pos - width.0));
+        pos += w;
+        out.push(pos);
+    }
+    out.push(end);
+    out
+}

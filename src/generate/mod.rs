@@ -141,6 +141,14 @@ fn ring_ccw(r: &layout::GridRect) -> Vec<DVec2> {
     ]
 }
 
+/// A grid rectangle kept free of buildings, in local metres.
+fn open_area(r: &layout::GridRect) -> Polygon {
+    Polygon {
+        exterior: ring_ccw(r),
+        holes: Vec::new(),
+    }
+}
+
 /// A generated city in local metres.
 #[derive(Clone, Debug)]
 pub struct GeneratedCity {
@@ -160,48 +168,63 @@ pub fn generate_buildings(params: &GenerateParams) -> Vec<GeneratedBuilding> {
 
 /// The whole city in local metres: buildings, square and river.
 pub fn generate_city(params: &GenerateParams) -> GeneratedCity {
+    fill_plan(params, 1.5, |rng, rect| {
+        buildings::fill_block(rng, rect)
+            .into_iter()
+            .map(|b| {
+                let footprint = Polygon {
+                    exterior: ring_ccw(&b.outer),
+                    holes: b
+                        .hole
+                        .iter()
+                        .map(|h| {
+                            let mut ring = ring_ccw(h);
+                            ring.reverse();
+                            ring
+                        })
+                        .collect(),
+                };
+                (b.kind, b.height, footprint)
+            })
+            .collect()
+    })
+}
+
+/// Exactly `params.buildings` buildings, ids "b0", "b1", ..., taken block
+/// by block from the centre outwards of a street plan of half-size
+/// `half_factor * radius + 300` m (doubled until the blocks suffice), the
+/// radius that of a disc of the target area. `fill` gives a block's
+/// buildings (kind, height, footprint) from the block's own random stream.
+fn fill_plan(
+    params: &GenerateParams,
+    half_factor: f64,
+    fill: impl Fn(&mut ChaCha8Rng, layout::GridRect) -> Vec<(Kind, f64, Polygon)>,
+) -> GeneratedCity {
     let n = params.buildings;
-    // A disc of the target area; the street plan covers a generous square
-    // around it, and grows if the blocks fall short.
     let radius = (n.max(1) as f64 / BUILDINGS_PER_KM2 / std::f64::consts::PI).sqrt() * 1000.0;
-    let mut half = 1.5 * radius + 300.0;
+    let mut half = half_factor * radius + 300.0;
     loop {
         let plan = layout::plan(&mut stream(params.seed, 0), half, radius);
         let mut out = Vec::with_capacity(n);
         'blocks: for block in plan.blocks.iter().filter(|b| !b.square) {
             let id = 1 + ((block.row as u64) << 32 | block.column as u64);
-            for b in buildings::fill_block(&mut stream(params.seed, id), block.rect) {
+            for (kind, height, footprint) in fill(&mut stream(params.seed, id), block.rect) {
                 if out.len() == n {
                     break 'blocks;
                 }
                 out.push(GeneratedBuilding {
                     id: format!("b{}", out.len()),
-                    kind: b.kind,
-                    height: b.height,
-                    footprint: Polygon {
-                        exterior: ring_ccw(&b.outer),
-                        holes: b
-                            .hole
-                            .iter()
-                            .map(|h| {
-                                let mut ring = ring_ccw(h);
-                                ring.reverse();
-                                ring
-                            })
-                            .collect(),
-                    },
+                    kind,
+                    height,
+                    footprint,
                 });
             }
         }
         if out.len() == n {
-            let open = |r: &layout::GridRect| Polygon {
-                exterior: ring_ccw(r),
-                holes: Vec::new(),
-            };
             return GeneratedCity {
                 buildings: out,
-                square: open(&plan.square),
-                river: open(&plan.river),
+                square: open_area(&plan.square),
+                river: open_area(&plan.river),
             };
         }
         half *= 2.0;

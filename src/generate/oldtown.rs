@@ -14,7 +14,8 @@ use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 
 use super::layout::GridRect;
-use super::{GenerateParams, GeneratedBuilding, GeneratedCity, Kind, layout, stream, to_local};
+use super::layout::cuts;
+use super::{GenerateParams, GeneratedCity, Kind, fill_plan, to_local};
 use crate::model::{Polygon, ring_signed_area2};
 
 /// Depth of the perimeter rows from the street, metres.
@@ -49,45 +50,12 @@ struct Drawn {
 
 /// The old-town city: exactly `params.buildings` buildings, kind `row`.
 pub fn generate_old_town(params: &GenerateParams) -> GeneratedCity {
-    let n = params.buildings;
-    let radius =
-        (n.max(1) as f64 / super::BUILDINGS_PER_KM2 / std::f64::consts::PI).sqrt() * 1000.0;
-    let mut half = 0.8 * radius + 300.0;
-    loop {
-        let plan = layout::plan(&mut stream(params.seed, 0), half, radius);
-        let mut out: Vec<GeneratedBuilding> = Vec::with_capacity(n);
-        'blocks: for block in plan.blocks.iter().filter(|b| !b.square) {
-            let id = 1 + ((block.row as u64) << 32 | block.column as u64);
-            for b in fill_block(&mut stream(params.seed, id), block.rect) {
-                if out.len() == n {
-                    break 'blocks;
-                }
-                out.push(GeneratedBuilding {
-                    id: format!("b{}", out.len()),
-                    kind: Kind::Row,
-                    height: b.height,
-                    footprint: to_polygon(&b),
-                });
-            }
-        }
-        if out.len() == n {
-            let open = |r: &GridRect| Polygon {
-                exterior: vec![
-                    to_local(r.u0, r.v0),
-                    to_local(r.u1, r.v0),
-                    to_local(r.u1, r.v1),
-                    to_local(r.u0, r.v1),
-                ],
-                holes: Vec::new(),
-            };
-            return GeneratedCity {
-                buildings: out,
-                square: open(&plan.square),
-                river: open(&plan.river),
-            };
-        }
-        half *= 2.0;
-    }
+    fill_plan(params, 0.8, |rng, rect| {
+        fill_block(rng, rect)
+            .iter()
+            .map(|b| (Kind::Row, b.height, to_polygon(b)))
+            .collect()
+    })
 }
 
 fn to_polygon(b: &Drawn) -> Polygon {
@@ -170,19 +138,6 @@ fn wall(rng: &mut ChaCha8Rng, at: f64, passage_allowed: bool) -> (Side, Side) {
     (left, right)
 }
 
-/// Cut [start, end] into building widths within WIDTH.
-fn cuts(rng: &mut ChaCha8Rng, start: f64, end: f64) -> Vec<f64> {
-    let mut out = vec![start];
-    let mut pos = start;
-    while end - pos > WIDTH.1 {
-        let w = rng.random_range(WIDTH.0..=WIDTH.1.min(end - pos - WIDTH.0));
-        pos += w;
-        out.push(pos);
-    }
-    out.push(end);
-    out
-}
-
 /// The buildings of one block: four perimeter rows around an open yard.
 /// The south and north rows run the full width (their end buildings are
 /// the corners); the west and east rows fit between them.
@@ -198,7 +153,7 @@ fn fill_block(rng: &mut ChaCha8Rng, b: GridRect) -> Vec<Drawn> {
         (
             {
                 let mut c = vec![b.u0];
-                c.extend(cuts(rng, b.u0 + dw, b.u1 - de));
+                c.extend(cuts(rng, b.u0 + dw, b.u1 - de, WIDTH));
                 c.push(b.u1);
                 c
             },
@@ -209,7 +164,7 @@ fn fill_block(rng: &mut ChaCha8Rng, b: GridRect) -> Vec<Drawn> {
         (
             {
                 let mut c = vec![b.u0];
-                c.extend(cuts(rng, b.u0 + dw, b.u1 - de));
+                c.extend(cuts(rng, b.u0 + dw, b.u1 - de, WIDTH));
                 c.push(b.u1);
                 c
             },
@@ -218,13 +173,13 @@ fn fill_block(rng: &mut ChaCha8Rng, b: GridRect) -> Vec<Drawn> {
             true,
         ),
         (
-            cuts(rng, b.v0 + ds, b.v1 - dn),
+            cuts(rng, b.v0 + ds, b.v1 - dn, WIDTH),
             dw,
             Box::new(move |s, t| (b.u0 + t, s)),
             false,
         ),
         (
-            cuts(rng, b.v0 + ds, b.v1 - dn),
+            cuts(rng, b.v0 + ds, b.v1 - dn, WIDTH),
             de,
             Box::new(move |s, t| (b.u1 - t, s)),
             false,

@@ -39,6 +39,16 @@ pub fn multipolygon_to_geo(mp: &[Polygon]) -> geo::MultiPolygon<f64> {
     geo::MultiPolygon::new(mp.iter().map(polygon_to_geo).collect())
 }
 
+/// A `geo` ring's points as an open model ring, as they are (only the
+/// closing vertex dropped): for callers that clean rings themselves.
+pub fn open_ring_from_geo(ring: &geo::LineString<f64>) -> Ring {
+    let mut points: Ring = ring.coords().map(|c| DVec2::new(c.x, c.y)).collect();
+    if points.len() > 1 && points.first() == points.last() {
+        points.pop();
+    }
+    points
+}
+
 /// A `geo` ring as an open model ring without repeated consecutive vertices
 /// (the closing vertex included), oriented counter-clockwise when `ccw` and
 /// clockwise otherwise. `None` when fewer than three vertices remain or the

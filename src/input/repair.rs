@@ -7,6 +7,7 @@ use geo::bool_ops::{FillRule, OpType};
 use geo::{BooleanOps, Validation};
 use glam::DVec2;
 
+use crate::geometry::convert::{open_ring_from_geo, polygon_to_geo};
 use crate::model::{MultiPolygon, Polygon, Ring, ring_signed_area2};
 
 /// Vertices closer than this (metres) are duplicates.
@@ -119,28 +120,6 @@ fn orient(ring: &mut Ring, ccw: bool) -> bool {
     }
 }
 
-fn to_geo_ring(ring: &[DVec2]) -> geo::LineString<f64> {
-    ring.iter()
-        .chain(ring.first())
-        .map(|p| geo::coord! { x: p.x, y: p.y })
-        .collect()
-}
-
-fn to_geo(polygon: &Polygon) -> geo::Polygon<f64> {
-    geo::Polygon::new(
-        to_geo_ring(&polygon.exterior),
-        polygon.holes.iter().map(|h| to_geo_ring(h)).collect(),
-    )
-}
-
-fn from_geo_ring(ring: &geo::LineString<f64>) -> Ring {
-    let mut points: Ring = ring.coords().map(|c| DVec2::new(c.x, c.y)).collect();
-    if points.len() > 1 && points.first() == points.last() {
-        points.pop();
-    }
-    points
-}
-
 /// Union with the non-zero fill rule: every point enclosed by any ring with a
 /// non-zero winding number is kept, so no covered ground is lost.
 fn union_nonzero(polygons: Vec<geo::Polygon<f64>>) -> Vec<Polygon> {
@@ -152,7 +131,7 @@ fn union_nonzero(polygons: Vec<geo::Polygon<f64>>) -> Vec<Polygon> {
         .iter()
         .filter_map(|p| {
             let mut ignored = VertexFixes::default();
-            let mut exterior = clean_ring(&from_geo_ring(p.exterior()), &mut ignored);
+            let mut exterior = clean_ring(&open_ring_from_geo(p.exterior()), &mut ignored);
             if !is_usable(&exterior) {
                 return None;
             }
@@ -160,7 +139,7 @@ fn union_nonzero(polygons: Vec<geo::Polygon<f64>>) -> Vec<Polygon> {
             let holes = p
                 .interiors()
                 .iter()
-                .map(|h| clean_ring(&from_geo_ring(h), &mut ignored))
+                .map(|h| clean_ring(&open_ring_from_geo(h), &mut ignored))
                 .filter(|h| is_usable(h))
                 .map(|mut h| {
                     orient(&mut h, false);
@@ -209,7 +188,9 @@ pub fn repair_footprint(raw: &RawFootprint, winding_matters: bool) -> Repaired {
             exterior,
             holes: kept_holes,
         };
-        let shape = to_geo(&polygon);
+        // Already oriented: the conversion keeps every ring as it is (it would
+        // only turn a ring of exactly zero area, which bounds nothing).
+        let shape = polygon_to_geo(&polygon);
         match shape.check_validation() {
             Ok(()) if is_usable(&polygon.exterior) => {
                 let before = polygon.holes.len();
@@ -243,7 +224,7 @@ pub fn repair_footprint(raw: &RawFootprint, winding_matters: bool) -> Repaired {
     }
     notes.extend(rebuilt);
     if valid.len() > 1 {
-        let shapes: Vec<geo::Polygon<f64>> = valid.iter().map(to_geo).collect();
+        let shapes: Vec<geo::Polygon<f64>> = valid.iter().map(polygon_to_geo).collect();
         let all = geo::MultiPolygon::new(shapes);
         if let Err(problem) = all.check_validation() {
             let before = valid.len();

@@ -4,14 +4,14 @@
 
 use glam::DVec2;
 
-/// Grid squares list the triangles whose bounding box overlaps them (CSR layout).
+use crate::grid::{CellLists, Key, UniformGrid};
+
+/// Grid squares list the triangles whose bounding box overlaps them.
 pub struct CellGrid {
-    min: DVec2,
-    size: DVec2,
-    nx: usize,
-    ny: usize,
-    starts: Vec<u32>,
-    items: Vec<u32>,
+    /// The bounding box of the triangles; none when there are none.
+    bounds: Option<(DVec2, DVec2)>,
+    grid: UniformGrid,
+    lists: CellLists,
 }
 
 fn cross(a: DVec2, b: DVec2, p: DVec2) -> f64 {
@@ -29,6 +29,14 @@ pub fn triangle_contains(t: &[DVec2; 3], p: DVec2) -> bool {
     (0..3).all(|k| cross(t[k], t[(k + 1) % 3], p) * s >= 0.0)
 }
 
+/// The key range of a triangle's bounding box.
+fn square_range(grid: &UniformGrid, t: &[DVec2; 3]) -> (Key, Key) {
+    (
+        grid.key(t[0].min(t[1]).min(t[2])),
+        grid.key(t[0].max(t[1]).max(t[2])),
+    )
+}
+
 impl CellGrid {
     /// The grid over `count` triangles, triangle `c` being `tri(c)`.
     pub fn new(count: usize, tri: impl Fn(usize) -> [DVec2; 3]) -> CellGrid {
@@ -42,12 +50,9 @@ impl CellGrid {
         }
         if count == 0 {
             return CellGrid {
-                min: DVec2::ZERO,
-                size: DVec2::ZERO,
-                nx: 0,
-                ny: 0,
-                starts: vec![0],
-                items: Vec::new(),
+                bounds: None,
+                grid: UniformGrid::square(DVec2::ZERO, 1.0, 1, 1),
+                lists: CellLists::none(),
             };
         }
         let size = max - min;
@@ -60,103 +65,38 @@ impl CellGrid {
         };
         let mut nx = ((target * aspect).sqrt().ceil() as usize).clamp(1, 4096);
         let mut ny = ((target / aspect).sqrt().ceil() as usize).clamp(1, 4096);
+        // The grid's `nx` by `ny` squares span the bounding box exactly (a
+        // flat box gets one square across).
+        let grid_of = |nx: usize, ny: usize| {
+            let side = |extent: f64, n: usize| if extent > 0.0 { extent / n as f64 } else { 1.0 };
+            UniformGrid::new(min, DVec2::new(side(size.x, nx), side(size.y, ny)), nx, ny)
+        };
         // Huge triangles would list themselves in many squares: coarsen until
         // the lists stay small (a corrupt file cannot make us allocate much).
         let limit = 16 * count as u64 + 1024;
         loop {
-            let g = CellGrid {
-                min,
-                size,
-                nx,
-                ny,
-                starts: Vec::new(),
-                items: Vec::new(),
-            };
-            let total: u64 = (0..count)
-                .map(|c| {
-                    let (x0, y0, x1, y1) = g.square_range(&tri(c));
-                    ((x1 - x0 + 1) * (y1 - y0 + 1)) as u64
-                })
-                .sum();
+            let g = grid_of(nx, ny);
+            let total = CellLists::total(&g, count, |c| square_range(&g, &tri(c)));
             if total <= limit || (nx == 1 && ny == 1) {
-                return g.filled(count, &tri);
+                return CellGrid {
+                    bounds: Some((min, max)),
+                    grid: g,
+                    lists: CellLists::build(&g, count, |c| square_range(&g, &tri(c))),
+                };
             }
             nx = nx.div_ceil(2);
             ny = ny.div_ceil(2);
         }
     }
 
-    fn column(&self, x: f64) -> usize {
-        let f = if self.size.x > 0.0 {
-            (x - self.min.x) / self.size.x * self.nx as f64
-        } else {
-            0.0
-        };
-        (f.max(0.0) as usize).min(self.nx - 1)
-    }
-
-    fn row(&self, y: f64) -> usize {
-        let f = if self.size.y > 0.0 {
-            (y - self.min.y) / self.size.y * self.ny as f64
-        } else {
-            0.0
-        };
-        (f.max(0.0) as usize).min(self.ny - 1)
-    }
-
-    fn square_range(&self, t: &[DVec2; 3]) -> (usize, usize, usize, usize) {
-        let lo = t[0].min(t[1]).min(t[2]);
-        let hi = t[0].max(t[1]).max(t[2]);
-        (
-            self.column(lo.x),
-            self.row(lo.y),
-            self.column(hi.x),
-            self.row(hi.y),
-        )
-    }
-
-    fn filled(mut self, count: usize, tri: &impl Fn(usize) -> [DVec2; 3]) -> CellGrid {
-        let squares = self.nx * self.ny;
-        let mut counts = vec![0u32; squares + 1];
-        for c in 0..count {
-            let (x0, y0, x1, y1) = self.square_range(&tri(c));
-            for y in y0..=y1 {
-                for x in x0..=x1 {
-                    counts[y * self.nx + x + 1] += 1;
-                }
-            }
-        }
-        for k in 1..counts.len() {
-            counts[k] += counts[k - 1];
-        }
-        let mut fill = counts.clone();
-        let mut items = vec![0u32; counts[squares] as usize];
-        for c in 0..count {
-            let (x0, y0, x1, y1) = self.square_range(&tri(c));
-            for y in y0..=y1 {
-                for x in x0..=x1 {
-                    let s = y * self.nx + x;
-                    items[fill[s] as usize] = c as u32;
-                    fill[s] += 1;
-                }
-            }
-        }
-        self.starts = counts;
-        self.items = items;
-        self
-    }
-
     /// The lowest-numbered cell containing `p`, if any.
     pub fn find(&self, p: DVec2, tri: impl Fn(usize) -> [DVec2; 3]) -> Option<usize> {
-        if self.nx == 0 || !p.is_finite() {
+        let (min, max) = self.bounds?;
+        if !p.is_finite() || p.x < min.x || p.y < min.y || p.x > max.x || p.y > max.y {
             return None;
         }
-        let max = self.min + self.size;
-        if p.x < self.min.x || p.y < self.min.y || p.x > max.x || p.y > max.y {
-            return None;
-        }
-        let s = self.row(p.y) * self.nx + self.column(p.x);
-        self.items[self.starts[s] as usize..self.starts[s + 1] as usize]
+        self.lists
+            .get(self.grid.index(self.grid.key(p)))
             .iter()
             .map(|&c| c as usize)
             .find(|&c| triangle_contains(&tri(c), p))

@@ -14,7 +14,7 @@ pub mod codec;
 mod grid;
 pub mod mesh;
 pub mod rc;
-pub use grid::triangle_contains;
+pub use grid::{CellGrid, triangle_contains};
 pub mod prints;
 mod read;
 #[doc(hidden)]

@@ -21,7 +21,7 @@ pub mod viewport;
 use glam::DVec2;
 use tiny_skia::{Pixmap, PixmapPaint, Transform};
 
-use crate::model::{Rect, multipolygon_bounds, point_in_ring};
+use crate::model::{Rect, multipolygon_bounds};
 use crate::prepare::Scene;
 use crate::visibility::CullMapImage;
 use crate::{Error, Result};
@@ -134,14 +134,11 @@ pub fn view_around(scene: &Scene, cell: usize, radius: f64) -> Rect {
     }
 }
 
-/// The lowest-numbered cell containing a point (local metres), if any.
+/// The lowest-numbered cell containing a point (local metres), if any: the
+/// lookup a `.pvs` reader answers (`PvsReader::cell_at`), over the scene's cells.
 pub fn cell_containing(scene: &Scene, p: DVec2) -> Option<usize> {
-    scene.cells.triangles.iter().position(|t| {
-        point_in_ring(p, t)
-            || t.iter()
-                .zip(t.iter().cycle().skip(1))
-                .any(|(a, b)| crate::model::distance_to_segment(p, *a, *b) <= 1e-9)
-    })
+    let cells = &scene.cells.triangles;
+    crate::pvs::CellGrid::new(cells.len(), |c| cells[c]).find(p, |c| cells[c])
 }
 
 fn check(picture: &Picture) -> Result<Rect> {

@@ -67,16 +67,10 @@ pub fn diff(a: &PvsReader, b: &PvsReader) -> Result<PvsDiff> {
         ..PvsDiff::default()
     };
     let (ia, ib) = (a.info(), b.info());
-    for (name, x, y) in [
-        ("eps", ia.eps, ib.eps),
-        ("eye-height", ia.eye_height, ib.eye_height),
-        ("pixel", ia.pixel, ib.pixel),
-        ("max-cell-edge", ia.max_cell_edge, ib.max_cell_edge),
-        ("margin", ia.margin, ib.margin),
-    ] {
-        if x.to_bits() != y.to_bits() {
-            out.header_changes.push(format!("{name}: {x} -> {y}"));
-        }
+    // The files were checked when opened, so their settings are valid.
+    let (sa, sb) = (ia.settings(None)?, ib.settings(None)?);
+    for (name, x, y) in sa.changed_numbers(&sb) {
+        out.header_changes.push(format!("{name}: {x} -> {y}"));
     }
     if ia.source_hash != ib.source_hash {
         out.header_changes.push("input (SHA-256)".into());

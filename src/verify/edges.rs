@@ -4,6 +4,7 @@
 
 use glam::DVec2;
 
+use crate::grid::{CellLists, Key, UniformGrid};
 use crate::model::{Building, Rect, multipolygon_bounds, polygon_edges};
 
 /// One footprint edge of one building, `a` to `b`.
@@ -27,13 +28,12 @@ pub struct Crossing {
 #[derive(Debug)]
 pub struct EdgeGrid {
     pub edges: Vec<Edge>,
+    /// The edges' (slightly grown) bounding box; the grid starts at its
+    /// lower left corner and covers it.
     bounds: Rect,
-    cell: f64,
-    nx: usize,
-    ny: usize,
-    /// Edges of grid cell `k` are `items[starts[k]..starts[k + 1]]`.
-    starts: Vec<u32>,
-    items: Vec<u32>,
+    grid: UniformGrid,
+    /// Per grid cell, the edges whose slightly grown bounding box touches it.
+    lists: CellLists,
 }
 
 /// Grid cells per edge (on average) the grid aims for.
@@ -87,83 +87,26 @@ impl EdgeGrid {
         // allocating, and coarsen while the lists would be too long.
         let max_items = 16 * edges.len() as u64 + 4_000_000;
         let grid = loop {
-            let nx = ((bounds.width() / cell).ceil() as usize).max(1);
-            let ny = ((bounds.height() / cell).ceil() as usize).max(1);
-            let grid = EdgeGrid {
-                edges: Vec::new(),
-                bounds,
-                cell,
-                nx,
-                ny,
-                starts: Vec::new(),
-                items: Vec::new(),
-            };
-            let items: u64 = edges
-                .iter()
-                .map(|e| {
-                    let ((x0, y0), (x1, y1)) = grid.edge_cells(e);
-                    ((x1 - x0 + 1) * (y1 - y0 + 1)) as u64
-                })
-                .sum();
-            if items <= max_items || nx * ny == 1 {
+            let (nx, ny) = UniformGrid::cells_to_cover(&bounds, cell);
+            let grid = UniformGrid::square(bounds.min, cell, nx, ny);
+            let items = CellLists::total(&grid, edges.len(), |e| edge_cells(&grid, &edges[e]));
+            if items <= max_items || grid.len() == 1 {
                 break grid;
             }
             cell *= 2.0;
         };
-        let (nx, ny) = (grid.nx, grid.ny);
-        let mut grid = EdgeGrid { edges, ..grid };
-        // Counting sort of (cell, edge) pairs, in two passes.
-        let mut starts = vec![0u32; nx * ny + 1];
-        for edge in &grid.edges {
-            let ((x0, y0), (x1, y1)) = grid.edge_cells(edge);
-            for y in y0..=y1 {
-                for x in x0..=x1 {
-                    starts[y * nx + x + 1] += 1;
-                }
-            }
+        let lists = CellLists::build(&grid, edges.len(), |e| edge_cells(&grid, &edges[e]));
+        EdgeGrid {
+            edges,
+            bounds,
+            grid,
+            lists,
         }
-        for k in 0..nx * ny {
-            starts[k + 1] += starts[k];
-        }
-        let mut fill = starts.clone();
-        let mut items = vec![0u32; starts[nx * ny] as usize];
-        for (e, edge) in grid.edges.iter().enumerate() {
-            let ((x0, y0), (x1, y1)) = grid.edge_cells(edge);
-            for y in y0..=y1 {
-                for x in x0..=x1 {
-                    let k = y * nx + x;
-                    items[fill[k] as usize] = e as u32;
-                    fill[k] += 1;
-                }
-            }
-        }
-        grid.starts = starts;
-        grid.items = items;
-        grid
-    }
-
-    /// The first and last grid cell (column, row) of an edge's slightly
-    /// grown bounding box.
-    fn edge_cells(&self, edge: &Edge) -> ((usize, usize), (usize, usize)) {
-        let pad = DVec2::splat(1e-9 * self.cell);
-        (
-            self.cell_of(edge.a.min(edge.b) - pad),
-            self.cell_of(edge.a.max(edge.b) + pad),
-        )
-    }
-
-    fn cell_of(&self, p: DVec2) -> (usize, usize) {
-        let q = (p - self.bounds.min) / self.cell;
-        let x = (q.x.floor().max(0.0) as usize).min(self.nx - 1);
-        let y = (q.y.floor().max(0.0) as usize).min(self.ny - 1);
-        (x, y)
     }
 
     /// The edge lists of all grid cells.
     pub fn cell_lists(&self) -> impl Iterator<Item = &[u32]> + '_ {
-        self.starts
-            .windows(2)
-            .map(|w| &self.items[w[0] as usize..w[1] as usize])
+        self.lists.iter()
     }
 
     /// Every point where edges of two different buildings cross (footprints
@@ -187,11 +130,6 @@ impl EdgeGrid {
         points.sort_by(|p, q| p.x.total_cmp(&q.x).then(p.y.total_cmp(&q.y)));
         points.dedup();
         points
-    }
-
-    fn cell_edges(&self, x: usize, y: usize) -> &[u32] {
-        let k = y * self.nx + x;
-        &self.items[self.starts[k] as usize..self.starts[k + 1] as usize]
     }
 
     /// Walk the ray `origin + t * dir` (`dir` a unit vector, t > 0) through
@@ -221,29 +159,28 @@ impl EdgeGrid {
             return;
         };
         let start = origin + dir * t_in;
-        let (mut x, mut y) = self.cell_of(start);
+        let g = &self.grid;
+        let (mut x, mut y) = g.key(start);
         let step_x: isize = if dir.x > 0.0 { 1 } else { -1 };
         let step_y: isize = if dir.y > 0.0 { 1 } else { -1 };
-        let next_boundary = |i: usize, step: isize, lo: f64| {
-            lo + (i as f64 + if step > 0 { 1.0 } else { 0.0 }) * self.cell
-        };
         let mut t_max_x = if dir.x != 0.0 {
-            (next_boundary(x, step_x, self.bounds.min.x) - origin.x) / dir.x
+            (g.column_exit(x, step_x > 0) - origin.x) / dir.x
         } else {
             f64::INFINITY
         };
         let mut t_max_y = if dir.y != 0.0 {
-            (next_boundary(y, step_y, self.bounds.min.y) - origin.y) / dir.y
+            (g.row_exit(y, step_y > 0) - origin.y) / dir.y
         } else {
             f64::INFINITY
         };
-        let t_dx = self.cell / dir.x.abs();
-        let t_dy = self.cell / dir.y.abs();
+        let cell = g.cell_size();
+        let t_dx = cell / dir.x.abs();
+        let t_dy = cell / dir.y.abs();
         // Crossings closer than this to the current cell's exit wait for the
         // next cell, so that rounding at cell borders cannot reorder them.
-        let slack = 1e-7 * (1.0 + self.cell);
+        let slack = 1e-7 * (1.0 + cell);
         loop {
-            for &e in self.cell_edges(x, y) {
+            for &e in self.lists.get(g.index((x, y))) {
                 if scratch.stamp[e as usize] == scratch.ray {
                     continue;
                 }
@@ -286,14 +223,14 @@ impl EdgeGrid {
             }
             if t_max_x < t_max_y {
                 let nx = x as isize + step_x;
-                if nx < 0 || nx >= self.nx as isize {
+                if nx < 0 || nx >= g.nx() as isize {
                     break;
                 }
                 x = nx as usize;
                 t_max_x += t_dx;
             } else {
                 let ny = y as isize + step_y;
-                if ny < 0 || ny >= self.ny as isize {
+                if ny < 0 || ny >= g.ny() as isize {
                     break;
                 }
                 y = ny as usize;
@@ -328,6 +265,15 @@ impl EdgeGrid {
         }
         (t0 <= t1).then_some((t0, t1))
     }
+}
+
+/// The first and last grid cell of an edge's slightly grown bounding box.
+fn edge_cells(grid: &UniformGrid, edge: &Edge) -> (Key, Key) {
+    let pad = DVec2::splat(1e-9 * grid.cell_size());
+    (
+        grid.key(edge.a.min(edge.b) - pad),
+        grid.key(edge.a.max(edge.b) + pad),
+    )
 }
 
 /// The point where segments `a`-`b` and `c`-`d` cross, if they do (touching
@@ -462,7 +408,11 @@ mod tests {
         let buildings: Vec<Building> = (0..2000).map(sliver).collect();
         let grid = EdgeGrid::new(&buildings);
         let limit = 16 * grid.edges.len() + 4_000_000;
-        assert!(grid.items.len() <= limit, "{} items", grid.items.len());
+        assert!(
+            grid.lists.entries() <= limit,
+            "{} items",
+            grid.lists.entries()
+        );
         // The ray along the diagonal still meets the first sliver's edges.
         let mut scratch = RayScratch::default();
         let mut hits = Vec::new();

@@ -4,10 +4,12 @@
 //!
 //! Submodules: [`sampling`] (which cells, which viewpoints), [`sight`]
 //! (exact visibility from one point), [`edges`] (the judge's edge grid and
-//! ray walk), [`envelope`] (the horizon of one wedge of rays).
+//! ray walk), [`envelope`] (the horizon of one wedge of rays), and
+//! [`verify_file`] (a `.pvs` file against its city: ids, frame, cells).
 
 pub mod edges;
 pub mod envelope;
+mod file;
 pub mod sampling;
 pub mod sight;
 
@@ -18,6 +20,7 @@ use glam::{DVec2, DVec3};
 use rayon::prelude::*;
 
 use crate::model::Building;
+pub use file::{FileCheck, FileUnderTest, verify_file};
 pub use sampling::{LOWEST_VIEWPOINT, cell_viewpoints, choose_cells};
 pub use sight::{Judge, Scratch, Sighting, View};
 
@@ -57,8 +60,8 @@ pub struct Violation {
     pub building: String,
     pub viewpoint: [f64; 3],
     pub witness: [f64; 3],
-    /// The viewpoint's x, y in the input file's coordinates, when the caller
-    /// knows the frame (the command line fills it in).
+    /// The viewpoint's x, y in the input file's coordinates, when the frame
+    /// is known ([`verify_file`] fills it in).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub viewpoint_input: Option<[f64; 2]>,
     /// The witness's x, y in the input file's coordinates, likewise.

@@ -6,6 +6,7 @@
 use glam::DVec2;
 
 use crate::geometry::Occluder;
+use crate::grid::{CellLists, UniformGrid};
 use crate::model::{Building, Rect, distance_to_segment, point_in_multipolygon, polygon_edges};
 
 /// One edge of a shrunk occluder level, with the solid on its left.
@@ -74,13 +75,13 @@ pub struct PyramidNode {
 pub struct SceneIndex {
     pub grid: PixelGrid,
     pub edges: Vec<OccluderEdge>,
-    bucket_size: f64,
-    bucket_origin: DVec2,
-    bucket_dims: (usize, usize),
-    buckets: Vec<Vec<u32>>,
+    /// The edge bucket grid (see [`bucket_grid`]).
+    buckets: UniformGrid,
+    /// Per bucket, the edges whose bounding box overlaps it.
+    bucket_lists: CellLists,
     /// Per bucket, the edges whose first point `a` lies in it (clamped to
     /// the grid): the horizon's chains start there and only there.
-    bucket_starts: Vec<Vec<u32>>,
+    bucket_starts: CellLists,
     /// Greatest occluder height among the edges starting in each bucket (0
     /// when none).
     bucket_heights: Vec<f64>,
@@ -123,40 +124,17 @@ impl SceneIndex {
     pub fn build(buildings: &[Building], occluders: &[Occluder], pixel: f64) -> SceneIndex {
         let grid = PixelGrid { pixel };
         let edges = collect_edges(occluders);
-        let mut bounds = Rect::EMPTY;
-        for e in &edges {
-            bounds.include(e.a);
-            bounds.include(e.b);
-        }
-        if bounds.is_empty() {
-            bounds = Rect {
-                min: DVec2::ZERO,
-                max: DVec2::ZERO,
-            };
-        }
-        // The grid is anchored in absolute local metres (its origin a
-        // multiple of the bucket size), so a bucket covers the same square
-        // whatever else the city holds. The horizon's chains do not depend
-        // on the grid at all (see `chain_cell`); the grid only decides in
-        // which groups edges are visited.
-        let bucket_size = grid_step(&bounds, BUCKET_SIZE);
-        let bucket_origin = (bounds.min / bucket_size).floor() * bucket_size;
-        let nx = (((bounds.max.x - bucket_origin.x) / bucket_size).floor() as usize + 1).max(1);
-        let ny = (((bounds.max.y - bucket_origin.y) / bucket_size).floor() as usize + 1).max(1);
-        let mut buckets = vec![Vec::new(); nx * ny];
-        let mut bucket_starts = vec![Vec::new(); nx * ny];
-        for (idx, e) in edges.iter().enumerate() {
-            let r = Rect::of_points([&e.a, &e.b]);
-            let (x0, y0) = bucket_coords(bucket_origin, bucket_size, r.min, nx, ny);
-            let (x1, y1) = bucket_coords(bucket_origin, bucket_size, r.max, nx, ny);
-            for y in y0..=y1 {
-                for x in x0..=x1 {
-                    buckets[y * nx + x].push(idx as u32);
-                }
-            }
-            let (x, y) = bucket_coords(bucket_origin, bucket_size, e.a, nx, ny);
-            bucket_starts[y * nx + x].push(idx as u32);
-        }
+        let buckets = bucket_grid(&edges);
+        let edge_range = |i: usize| {
+            let e = &edges[i];
+            buckets.key_range(&Rect::of_points([&e.a, &e.b]))
+        };
+        let bucket_lists = CellLists::build(&buckets, edges.len(), edge_range);
+        let start_range = |i: usize| {
+            let k = buckets.key(edges[i].a);
+            (k, k)
+        };
+        let bucket_starts = CellLists::build(&buckets, edges.len(), start_range);
         let bucket_heights = bucket_starts
             .iter()
             .map(|b| {
@@ -209,10 +187,8 @@ impl SceneIndex {
         SceneIndex {
             grid,
             edges,
-            bucket_size,
-            bucket_origin,
-            bucket_dims: (nx, ny),
             buckets,
+            bucket_lists,
             bucket_starts,
             bucket_heights,
             bucket_chain_rects,
@@ -224,60 +200,32 @@ impl SceneIndex {
         }
     }
 
-    /// The bucket column and row holding `v` (possibly outside the grid).
-    fn bucket_of(&self, v: DVec2) -> (i64, i64) {
-        let q = ((v - self.bucket_origin) / self.bucket_size).floor();
-        (q.x as i64, q.y as i64)
-    }
-
     /// Side of an edge bucket in metres.
     pub fn bucket_size(&self) -> f64 {
-        self.bucket_size
+        self.buckets.cell_size()
     }
 
     /// The largest Chebyshev ring (in buckets) around `v`'s bucket that
     /// still touches the bucket grid.
     pub fn max_bucket_ring(&self, v: DVec2) -> i64 {
-        let (nx, ny) = self.bucket_dims;
-        let (x, y) = self.bucket_of(v);
-        let dx = x.abs().max((x - (nx as i64 - 1)).abs());
-        let dy = y.abs().max((y - (ny as i64 - 1)).abs());
-        dx.max(dy)
+        self.buckets.max_ring(v)
     }
 
     /// Call `f` with every bucket at Chebyshev distance exactly `ring` from
     /// the bucket containing `v`.
-    pub fn buckets_in_ring(&self, v: DVec2, ring: i64, mut f: impl FnMut(usize)) {
-        let (nx, ny) = (self.bucket_dims.0 as i64, self.bucket_dims.1 as i64);
-        let (cx, cy) = self.bucket_of(v);
-        let mut visit = |x: i64, y: i64| {
-            if x >= 0 && y >= 0 && x < nx && y < ny {
-                f((y * nx + x) as usize);
-            }
-        };
-        if ring == 0 {
-            visit(cx, cy);
-            return;
-        }
-        for x in cx - ring..=cx + ring {
-            visit(x, cy - ring);
-            visit(x, cy + ring);
-        }
-        for y in cy - ring + 1..cy + ring {
-            visit(cx - ring, y);
-            visit(cx + ring, y);
-        }
+    pub fn buckets_in_ring(&self, v: DVec2, ring: i64, f: impl FnMut(usize)) {
+        self.buckets.for_each_in_ring(v, ring, f);
     }
 
     /// The edges whose bounding box overlaps bucket `b`.
     pub fn bucket_edges(&self, b: usize) -> &[u32] {
-        &self.buckets[b]
+        self.bucket_lists.get(b)
     }
 
     /// The edges whose first point lies in bucket `b` (each edge starts in
     /// exactly one bucket).
     pub fn bucket_starts(&self, b: usize) -> &[u32] {
-        &self.bucket_starts[b]
+        self.bucket_starts.get(b)
     }
 
     /// The greatest occluder height among the edges starting in bucket `b`.
@@ -296,41 +244,49 @@ impl SceneIndex {
 
     /// The square bucket `b` covers.
     pub fn bucket_rect(&self, b: usize) -> Rect {
-        let nx = self.bucket_dims.0;
-        let min =
-            self.bucket_origin + DVec2::new((b % nx) as f64, (b / nx) as f64) * self.bucket_size;
-        Rect {
-            min,
-            max: min + DVec2::splat(self.bucket_size),
-        }
+        self.buckets.cell_rect(b)
     }
 
     /// Call `f` with the index of every edge whose bucket overlaps `rect`
     /// (an edge may be reported more than once).
     pub fn edges_near(&self, rect: &Rect, mut f: impl FnMut(u32)) {
-        let (nx, ny) = self.bucket_dims;
-        let lo = (rect.min - self.bucket_origin) / self.bucket_size;
-        let hi = (rect.max - self.bucket_origin) / self.bucket_size;
-        if hi.x < 0.0 || hi.y < 0.0 || lo.x >= nx as f64 || lo.y >= ny as f64 {
+        if self.buckets.misses(rect) {
             return;
         }
-        let (x0, y0) = bucket_coords(self.bucket_origin, self.bucket_size, rect.min, nx, ny);
-        let (x1, y1) = bucket_coords(self.bucket_origin, self.bucket_size, rect.max, nx, ny);
-        for y in y0..=y1 {
-            for x in x0..=x1 {
-                for &e in &self.buckets[y * nx + x] {
-                    f(e);
-                }
+        self.buckets.for_each_in_rect(rect, |b| {
+            for &e in self.bucket_lists.get(b) {
+                f(e);
             }
-        }
+        });
     }
 }
 
-fn bucket_coords(origin: DVec2, size: f64, p: DVec2, nx: usize, ny: usize) -> (usize, usize) {
-    let q = (p - origin) / size;
-    let x = (q.x.floor().max(0.0) as usize).min(nx - 1);
-    let y = (q.y.floor().max(0.0) as usize).min(ny - 1);
-    (x, y)
+/// The edge bucket grid: [`BUCKET_SIZE`] squares (grown by [`grid_step`]
+/// over a very wide city) from the multiple of the square size at or below
+/// the lower left corner of the edges' bounding box, enough of them that
+/// the box's far sides lie inside the grid.
+fn bucket_grid(edges: &[OccluderEdge]) -> UniformGrid {
+    let mut bounds = Rect::EMPTY;
+    for e in edges {
+        bounds.include(e.a);
+        bounds.include(e.b);
+    }
+    if bounds.is_empty() {
+        bounds = Rect {
+            min: DVec2::ZERO,
+            max: DVec2::ZERO,
+        };
+    }
+    // Anchored in absolute local metres (the origin a multiple of the
+    // bucket size), so a bucket covers the same square whatever else the
+    // city holds. The horizon's chains do not depend on the grid at all
+    // (see `chain_cell`); the grid only decides in which groups edges are
+    // visited.
+    let size = grid_step(&bounds, BUCKET_SIZE);
+    let origin = (bounds.min / size).floor() * size;
+    let nx = ((bounds.max.x - origin.x) / size).floor() as usize + 1;
+    let ny = ((bounds.max.y - origin.y) / size).floor() as usize + 1;
+    UniformGrid::square(origin, size, nx, ny)
 }
 
 /// Longest occluder edge piece: long walls are cut so that a short chain of
@@ -432,15 +388,17 @@ fn build_pyramid(objects: &[ObjectRaster]) -> (Vec<PyramidNode>, Option<u32>) {
         bounds = bounds.union(&o.rect);
     }
     let leaf = grid_step(&bounds, PYRAMID_LEAF);
-    let mut nx = ((bounds.width() / leaf).floor() as usize + 1).max(1);
-    let mut ny = ((bounds.height() / leaf).floor() as usize + 1).max(1);
-    let mut level: Vec<Option<PyramidNode>> = vec![None; nx * ny];
+    let leaves = UniformGrid::square(
+        bounds.min,
+        leaf,
+        (bounds.width() / leaf).floor() as usize + 1,
+        (bounds.height() / leaf).floor() as usize + 1,
+    );
+    let (mut nx, mut ny) = (leaves.nx(), leaves.ny());
+    let mut level: Vec<Option<PyramidNode>> = vec![None; leaves.len()];
     for (idx, o) in objects.iter().enumerate() {
         let c = (o.rect.min + o.rect.max) * 0.5;
-        let q = (c - bounds.min) / leaf;
-        let x = (q.x.floor().max(0.0) as usize).min(nx - 1);
-        let y = (q.y.floor().max(0.0) as usize).min(ny - 1);
-        let node = level[y * nx + x].get_or_insert_with(|| PyramidNode {
+        let node = level[leaves.index(leaves.key(c))].get_or_insert_with(|| PyramidNode {
             rect: Rect::EMPTY,
             max_height: 0.0,
             children: Vec::new(),

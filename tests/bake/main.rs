@@ -6,6 +6,7 @@
 mod bake_cli;
 #[path = "../common/mod.rs"]
 mod common;
+mod flags_refused;
 mod output_files;
 mod settings_cli;
 mod tiny_buildings;

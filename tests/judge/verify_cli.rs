@@ -164,3 +164,27 @@ fn verify_passes_a_correct_pvs_and_fails_a_broken_one() {
     assert_eq!(code, 2);
     assert!(err.contains("elsewhere") && err.contains("wrong"), "{err}");
 }
+
+/// `--region` only serves the check that `--any-cells` skips: the two
+/// together are refused before anything is read.
+#[test]
+fn region_with_any_cells_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = crate::common::citypvs(
+        dir.path(),
+        &[
+            "verify",
+            "city.geojson",
+            "city.pvs",
+            "--any-cells",
+            "--region",
+            "region.geojson",
+        ],
+    );
+    let err = crate::common::stderr(&out);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("--region") && err.contains("--any-cells"),
+        "{err}"
+    );
+}

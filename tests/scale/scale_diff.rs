@@ -186,3 +186,31 @@ fn diff_of_two_bakes_of_an_edited_city_names_the_removed_building() {
             .any(|l| l == gone[0]))
     );
 }
+
+/// Every setting the header records is compared, the near-field half-size
+/// and the minimum gap as well as eps and the rest.
+#[test]
+fn diff_names_every_changed_setting() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let a = data(&["a"], &[0.0], vec![vec![0]]);
+    let mut b = data(&["a"], &[0.0], vec![vec![0]]);
+    b.info.near_field = 40.0;
+    b.info.min_gap = 0.5;
+    b.info.eps = 2.0;
+    b.info.pixel = 2.8;
+    write_pvs(&d.join("a.pvs"), &a).unwrap();
+    write_pvs(&d.join("b.pvs"), &b).unwrap();
+    let (code, stdout, stderr) = diff(d, &["a.pvs", "b.pvs", "--json"]);
+    assert_eq!(code, Some(0), "same sets: {stderr}");
+    let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(
+        v["header_changes"],
+        serde_json::json!([
+            "eps: 1 -> 2",
+            "pixel: 1.4 -> 2.8",
+            "near-field: 48 -> 40",
+            "min-gap: 0 -> 0.5"
+        ])
+    );
+}
