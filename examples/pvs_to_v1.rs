@@ -5,7 +5,7 @@
 //!
 //!     cargo run --release --example pvs_to_v1 -- in.pvs out.v1.pvs
 
-use citypvs::pvs::{PvsData, PvsReader};
+use citypvs::pvs::PvsReader;
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
@@ -20,19 +20,7 @@ fn main() {
             std::process::exit(2);
         }
     };
-    let mut visible = Vec::with_capacity(reader.cell_count());
-    reader
-        .for_each_visible(|_, set| {
-            visible.push(set.to_vec());
-            Ok(())
-        })
-        .expect("decoding the sets");
-    let data = PvsData {
-        info: reader.info().clone(),
-        object_ids: reader.object_ids().to_vec(),
-        cells: reader.cell_triangles(),
-        visible,
-    };
+    let data = reader.to_data().expect("decoding the sets");
     let bytes = citypvs::pvs::v1::write_v1(&data);
     let back = citypvs::pvs::v1::read_v1(&bytes).expect("reading the version 1 bytes back");
     assert_eq!(back.visible, data.visible);

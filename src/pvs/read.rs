@@ -309,6 +309,23 @@ impl PvsReader {
             .map(|i| self.object_ids[i as usize].as_str())
             .collect())
     }
+    /// The whole file decoded into memory (every cell's set at once: for
+    /// tools and measurements on files known to be small, not for hostile
+    /// ones, whose sets can expand far beyond the file's size).
+    pub fn to_data(&self) -> Result<super::PvsData> {
+        let mut visible = Vec::with_capacity(self.cell_count());
+        self.for_each_visible(|_, s| {
+            visible.push(s.to_vec());
+            Ok(())
+        })?;
+        Ok(super::PvsData {
+            info: self.info().clone(),
+            object_ids: self.object_ids().to_vec(),
+            object_prints: self.object_prints().to_vec(),
+            cells: self.cell_triangles(),
+            visible,
+        })
+    }
     /// Call `f(cell, visible)` for every cell in order, with the ascending
     /// input indices of its set, decoding each block once. Memory: one set.
     pub fn for_each_visible(&self, mut f: impl FnMut(usize, &[u32]) -> Result<()>) -> Result<()> {

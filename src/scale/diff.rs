@@ -48,7 +48,8 @@ impl PvsDiff {
     }
 }
 
-fn key(t: &[glam::DVec2; 3]) -> [u64; 6] {
+/// A cell's identity across files: its corners' exact coordinate bits.
+pub(crate) fn cell_key(t: &[glam::DVec2; 3]) -> [u64; 6] {
     [
         t[0].x.to_bits(),
         t[0].y.to_bits(),
@@ -91,11 +92,11 @@ pub fn diff(a: &PvsReader, b: &PvsReader) -> Result<PvsDiff> {
 
     let mut in_b: HashMap<[u64; 6], usize> = HashMap::with_capacity(b.cell_count());
     for (i, t) in b.cell_triangles().iter().enumerate() {
-        in_b.entry(key(t)).or_insert(i);
+        in_b.entry(cell_key(t)).or_insert(i);
     }
     let mut matched_b = vec![false; b.cell_count()];
     for (ca, t) in a.cell_triangles().iter().enumerate() {
-        let Some(&cb) = in_b.get(&key(t)) else {
+        let Some(&cb) = in_b.get(&cell_key(t)) else {
             out.cells_removed.push(ca);
             continue;
         };

@@ -53,20 +53,13 @@ pub struct RebakeStats {
 pub fn check_previous(scene: &Scene, old: &PvsReader, path: &Path) -> Result<()> {
     let now = crate::bake::bake_info(scene);
     let was = old.info();
-    let mut differ = Vec::new();
-    for (name, a, b) in [
-        ("eps", was.eps, now.eps),
-        ("eye-height", was.eye_height, now.eye_height),
-        ("pixel", was.pixel, now.pixel),
-        ("max-cell-edge", was.max_cell_edge, now.max_cell_edge),
-        ("margin", was.margin, now.margin),
-        ("near-field", was.near_field, now.near_field),
-        ("min-gap", was.min_gap, now.min_gap),
-    ] {
-        if a.to_bits() != b.to_bits() {
-            differ.push(format!("{name} {a} (now {b})"));
-        }
-    }
+    // The previous file was checked when opened, so its settings are valid.
+    let mut differ: Vec<String> = was
+        .settings(None)?
+        .changed_numbers(&scene.settings)
+        .into_iter()
+        .map(|(name, a, b)| format!("{name} {a} (now {b})"))
+        .collect();
     if was.region_hash != now.region_hash {
         differ.push("region".into());
     }
@@ -90,17 +83,6 @@ pub fn check_previous(scene: &Scene, old: &PvsReader, path: &Path) -> Result<()>
         )));
     }
     Ok(())
-}
-
-fn key(t: &[glam::DVec2; 3]) -> [u64; 6] {
-    [
-        t[0].x.to_bits(),
-        t[0].y.to_bits(),
-        t[1].x.to_bits(),
-        t[1].y.to_bits(),
-        t[2].x.to_bits(),
-        t[2].y.to_bits(),
-    ]
 }
 
 fn unique<'a>(ids: impl Iterator<Item = &'a str>) -> Option<HashMap<&'a str, u32>> {
@@ -177,7 +159,7 @@ pub fn rebake(
     let mut old_cell: HashMap<[u64; 6], Option<usize>> = HashMap::with_capacity(old.cell_count());
     for (i, t) in old.cell_triangles().iter().enumerate() {
         old_cell
-            .entry(key(t))
+            .entry(super::diff::cell_key(t))
             .and_modify(|e| *e = None)
             .or_insert(Some(i));
     }
@@ -187,7 +169,7 @@ pub fn rebake(
     let mut sets: Vec<Option<Vec<u32>>> = vec![None; cells.len()];
     let mut candidates: Vec<(usize, Vec<u32>)> = Vec::new();
     for (c, t) in cells.iter().enumerate() {
-        let Some(&Some(oc)) = old_cell.get(&key(t)) else {
+        let Some(&Some(oc)) = old_cell.get(&super::diff::cell_key(t)) else {
             stats.cells_new += 1;
             continue;
         };

@@ -405,35 +405,13 @@ impl<'a> Solver<'a> {
                 if reach.is_empty() || horizon.hides_rect(v, eye, reach, height) {
                     return;
                 }
-                for &e in index.bucket_starts(bucket) {
-                    let edge = &index.edges[e as usize];
-                    let stride = edge_stride(vc, edge.a);
-                    if !edge.ring_pos.is_multiple_of(stride) || edge.height <= eye {
-                        continue;
-                    }
-                    let pieces = stride + 1;
-                    chains.push(chain_reach(index, v, e, pieces), e, pieces);
-                }
+                queue_bucket_chains(index, v, vc, eye, bucket, chains);
             });
         }
         let mut ready = std::mem::take(&mut self.ready);
         ready.clear();
         self.chains.take_nearer(r, &mut ready);
-        for &(_, e, pieces) in &ready {
-            let edge = &index.edges[e as usize];
-            let mut cur = e;
-            let mut count = 0;
-            let chain = std::iter::once(edge.a).chain(std::iter::from_fn(|| {
-                if count >= pieces {
-                    return None;
-                }
-                count += 1;
-                let c = &index.edges[cur as usize];
-                cur = c.next;
-                Some(c.b)
-            }));
-            self.horizon.add_chain(v, self.eye, edge.height, chain);
-        }
+        add_ready_chains(&mut self.horizon, index, v, self.eye, &ready);
         self.ready = ready;
     }
 
@@ -514,34 +492,12 @@ impl<'a> Solver<'a> {
                     {
                         return;
                     }
-                    for &e in index.bucket_starts(bucket) {
-                        let edge = &index.edges[e as usize];
-                        let stride = edge_stride(vc, edge.a);
-                        if !edge.ring_pos.is_multiple_of(stride) || edge.height <= eye {
-                            continue;
-                        }
-                        let pieces = stride + 1;
-                        chains.push(chain_reach(index, v, e, pieces), e, pieces);
-                    }
+                    queue_bucket_chains(index, v, vc, eye, bucket, chains);
                 });
             }
             ready.clear();
             self.chains.take_nearer(r, &mut ready);
-            for &(_, e, pieces) in &ready {
-                let edge = &index.edges[e as usize];
-                let mut cur = e;
-                let mut count = 0;
-                let chain = std::iter::once(edge.a).chain(std::iter::from_fn(|| {
-                    if count >= pieces {
-                        return None;
-                    }
-                    count += 1;
-                    let c = &index.edges[cur as usize];
-                    cur = c.next;
-                    Some(c.b)
-                }));
-                self.horizon.add_chain(v, eye, edge.height, chain);
-            }
+            add_ready_chains(&mut self.horizon, index, v, eye, &ready);
             let hidden = self.horizon.hides_rect_strictly(v, eye, &rect, top);
             if is_union {
                 if hidden {
@@ -618,6 +574,53 @@ impl<'a> Solver<'a> {
 }
 
 /// Distance from `v` to the nearest point of `rect` (0 inside).
+/// Queue every chain that starts in `bucket` (at the pieces its stride
+/// picks, from the absolute square `vc` of the eye) with its reach.
+fn queue_bucket_chains(
+    index: &SceneIndex,
+    v: DVec2,
+    vc: (i64, i64),
+    eye: f64,
+    bucket: usize,
+    chains: &mut ChainQueue,
+) {
+    for &e in index.bucket_starts(bucket) {
+        let edge = &index.edges[e as usize];
+        let stride = edge_stride(vc, edge.a);
+        if !edge.ring_pos.is_multiple_of(stride) || edge.height <= eye {
+            continue;
+        }
+        let pieces = stride + 1;
+        chains.push(chain_reach(index, v, e, pieces), e, pieces);
+    }
+}
+
+/// Add the chains taken from the queue (first piece, piece count) to the
+/// horizon seen from `(v, eye)`.
+fn add_ready_chains(
+    horizon: &mut Horizon,
+    index: &SceneIndex,
+    v: DVec2,
+    eye: f64,
+    ready: &[(f64, u32, u32)],
+) {
+    for &(_, e, pieces) in ready {
+        let edge = &index.edges[e as usize];
+        let mut cur = e;
+        let mut count = 0;
+        let chain = std::iter::once(edge.a).chain(std::iter::from_fn(|| {
+            if count >= pieces {
+                return None;
+            }
+            count += 1;
+            let c = &index.edges[cur as usize];
+            cur = c.next;
+            Some(c.b)
+        }));
+        horizon.add_chain(v, eye, edge.height, chain);
+    }
+}
+
 fn rect_distance(v: DVec2, rect: &Rect) -> f64 {
     v.clamp(rect.min, rect.max).distance(v)
 }

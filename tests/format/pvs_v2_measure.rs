@@ -40,19 +40,7 @@ fn encode(
 fn convert_and_measure() {
     let (v1, mut data, raw) = if let Ok(v2) = std::env::var("CITYPVS_V2") {
         let reader = PvsReader::open(v2.as_ref()).unwrap();
-        let mut visible = Vec::new();
-        reader
-            .for_each_visible(|_, s| {
-                visible.push(s.to_vec());
-                Ok(())
-            })
-            .unwrap();
-        let data = PvsData {
-            info: reader.info().clone(),
-            object_ids: reader.object_ids().to_vec(),
-            cells: reader.cell_triangles(),
-            visible,
-        };
+        let data = reader.to_data().unwrap();
         let raw = citypvs::pvs::v1::write_v1(&data);
         (v2, data, raw)
     } else if let Ok(v1) = std::env::var("CITYPVS_V1") {
