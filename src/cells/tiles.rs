@@ -28,6 +28,10 @@ pub const TILE_EDGES: usize = 1500;
 /// Side of the coarsest tiles in metres (a power of two).
 pub const TOP_TILE: f64 = 256.0;
 
+/// Most coarse tiles over the free space's extent (the coarse side doubles
+/// until they fit): 65,536, a city of 65 km square at the default side.
+pub const MAX_TOP_TILES: f64 = 65536.0;
+
 /// The margin around a tile, in units of min_gap: the opening at a point
 /// depends only on the free space within 1.02 min_gap + 2 mm of it, and the
 /// clean-up looks at most 1.8 min_gap beyond a short edge and moves the
@@ -127,11 +131,37 @@ pub fn tiles(free: &MultiPolygon, tiling: &Tiling) -> Vec<Tile> {
     else {
         return Vec::new();
     };
-    let s = tiling.top_side;
+    // Over a very wide extent (reachable only through the library: the
+    // readers refuse cities wider than 100 km) the coarse tiles grow, so
+    // that their number stays bounded; the splitting below still refines
+    // them wherever the outline is dense.
+    let mut s = tiling.top_side;
+    let count = |s: f64| ((all.1.x - all.0.x) / s + 2.0) * ((all.1.y - all.0.y) / s + 2.0);
+    for _ in 0..2100 {
+        if count(s) <= MAX_TOP_TILES {
+            break;
+        }
+        s *= 2.0;
+    }
+    if count(s).is_nan() || count(s) > MAX_TOP_TILES {
+        return Vec::new();
+    }
     let (x0, x1) = ((all.0.x / s).floor() as i64, (all.1.x / s).floor() as i64);
     let (y0, y1) = ((all.0.y / s).floor() as i64, (all.1.y / s).floor() as i64);
+    // The edges by coarse row (each under every row whose grown tiles it
+    // may overlap, in ascending order), so a tile looks only at its row's.
+    let rows = (y1 - y0 + 1) as usize;
+    let mut by_row: Vec<Vec<u32>> = vec![Vec::new(); rows];
+    for (i, e) in edges.iter().enumerate() {
+        let lo = (((e.0.y - tiling.margin) / s).floor() as i64 - 1).clamp(y0, y1);
+        let hi = (((e.1.y + tiling.margin) / s).floor() as i64 + 1).clamp(y0, y1);
+        for r in lo..=hi {
+            by_row[(r - y0) as usize].push(i as u32);
+        }
+    }
     let mut out = Vec::new();
     for iy in y0..=y1 {
+        let row = &by_row[(iy - y0) as usize];
         for ix in x0..=x1 {
             let tile = Tile {
                 min: DVec2::new(ix as f64 * s, iy as f64 * s),
@@ -141,7 +171,9 @@ pub fn tiles(free: &MultiPolygon, tiling: &Tiling) -> Vec<Tile> {
             if !overlaps(g, all) {
                 continue;
             }
-            let mine: Vec<u32> = (0..edges.len() as u32)
+            let mine: Vec<u32> = row
+                .iter()
+                .copied()
                 .filter(|&i| overlaps(edges[i as usize], g))
                 .collect();
             split(tile, &mine, &edges, tiling, &mut out);

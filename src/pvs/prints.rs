@@ -7,13 +7,17 @@
 //! bytes.
 
 use glam::DVec2;
+#[cfg(feature = "bake")]
 use sha2::{Digest, Sha256};
 
 use crate::error::{Error, Result};
-use crate::model::{MultiPolygon, Rect};
+#[cfg(feature = "bake")]
+use crate::model::MultiPolygon;
+use crate::model::Rect;
 
 /// One object's entry.
-#[derive(Clone, Copy, Debug, PartialEq, bincode::Encode, bincode::Decode)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "bake", derive(bincode::Encode, bincode::Decode))]
 pub struct ObjectPrint {
     /// SHA-256 (first 8 bytes, little-endian) over the exact bits of the
     /// footprint, the height and the occluder flag.
@@ -39,6 +43,7 @@ impl ObjectPrint {
 /// Bytes of one entry in the file.
 pub const PRINT_BYTES: usize = 48;
 
+#[cfg(feature = "bake")]
 fn hash_polygons(h: &mut Sha256, shape: &MultiPolygon) {
     h.update((shape.len() as u64).to_le_bytes());
     for polygon in shape {
@@ -53,17 +58,23 @@ fn hash_polygons(h: &mut Sha256, shape: &MultiPolygon) {
     }
 }
 
+#[cfg(feature = "bake")]
 fn finish(h: Sha256) -> u64 {
     let d = h.finalize();
     u64::from_le_bytes(d[..8].try_into().expect("8 bytes"))
 }
 
-/// Every object's entry for a prepared scene, in object order.
+/// Every object's entry for a prepared scene, in object order. An
+/// occluder naming no block of the scene (a scene put together by hand)
+/// adds to no block's fingerprint.
+#[cfg(feature = "bake")]
 pub fn object_prints(scene: &crate::prepare::Scene) -> Vec<ObjectPrint> {
     let buildings = &scene.city.buildings;
     let mut block_hash = vec![Sha256::new(); scene.blocks.len()];
     for occ in &scene.occluders {
-        let h = &mut block_hash[occ.block];
+        let Some(h) = block_hash.get_mut(occ.block) else {
+            continue;
+        };
         h.update((occ.level as u64).to_le_bytes());
         h.update(occ.height.to_bits().to_le_bytes());
         hash_polygons(h, &occ.shape);
