@@ -37,24 +37,29 @@ pub struct PvsReader {
 }
 
 /// Sequential little-endian reader over one section's bytes.
-struct Cursor<'a> {
+/// A little-endian reader over the bytes of one section (or of a whole
+/// old-layout file), naming the section in its errors.
+pub(super) struct Cursor<'a> {
     bytes: &'a [u8],
-    pos: usize,
+    pub(super) pos: usize,
     section: &'static str,
 }
 
 impl<'a> Cursor<'a> {
-    fn new(bytes: &'a [u8], section: &'static str) -> Self {
+    pub(super) fn new(bytes: &'a [u8], section: &'static str) -> Self {
+        Cursor::at(bytes, 0, section)
+    }
+    pub(super) fn at(bytes: &'a [u8], pos: usize, section: &'static str) -> Self {
         Cursor {
             bytes,
-            pos: 0,
+            pos: pos.min(bytes.len()),
             section,
         }
     }
-    fn left(&self) -> usize {
+    pub(super) fn left(&self) -> usize {
         self.bytes.len() - self.pos
     }
-    fn take(&mut self, n: usize, what: &str) -> Result<&'a [u8]> {
+    pub(super) fn take(&mut self, n: usize, what: &str) -> Result<&'a [u8]> {
         if n > self.left() {
             return Err(Error::format(format!(
                 "{what} runs past the end of the {} section",
@@ -65,13 +70,13 @@ impl<'a> Cursor<'a> {
         self.pos += n;
         Ok(s)
     }
-    fn u32(&mut self, what: &str) -> Result<u32> {
+    pub(super) fn u32(&mut self, what: &str) -> Result<u32> {
         Ok(u32::from_le_bytes(self.take(4, what)?.try_into().unwrap()))
     }
-    fn u64(&mut self, what: &str) -> Result<u64> {
+    pub(super) fn u64(&mut self, what: &str) -> Result<u64> {
         Ok(u64::from_le_bytes(self.take(8, what)?.try_into().unwrap()))
     }
-    fn f64(&mut self, what: &str) -> Result<f64> {
+    pub(super) fn f64(&mut self, what: &str) -> Result<f64> {
         Ok(f64::from_le_bytes(self.take(8, what)?.try_into().unwrap()))
     }
     fn varint(&mut self, what: &str) -> Result<u64> {

@@ -8,67 +8,43 @@ use glam::DVec2;
 use sha2::{Digest, Sha256};
 
 use super::codec::decode_record;
+use super::read::Cursor;
+use super::write::{put_u32, put_u64};
 use super::{BakeInfo, MAGIC, PvsData};
 use crate::frame::Frame;
 
 const V1_HEADER_BYTES: usize = 168;
 use crate::{Error, Result};
 
-/// Sequential little-endian reader over the file bytes.
-struct Cursor<'a> {
-    bytes: &'a [u8],
-    pos: usize,
+/// A string with a u32 length, as version 1 wrote them.
+fn v1_string(c: &mut Cursor, what: &str) -> Result<String> {
+    let len = c.u32(what)? as usize;
+    let raw = c.take(len, what)?;
+    String::from_utf8(raw.to_vec()).map_err(|_| Error::format(format!("{what} is not valid UTF-8")))
 }
 
-impl<'a> Cursor<'a> {
-    fn take(&mut self, n: usize, what: &str) -> Result<&'a [u8]> {
-        let end = self.pos.checked_add(n).filter(|&e| e <= self.bytes.len());
-        let Some(end) = end else {
+/// Check that the writer's recorded offset matches where the cursor is.
+fn expect_at(c: &Cursor, offset: u64, what: &str) -> Result<()> {
+    if offset != c.pos as u64 {
+        return Err(Error::format(format!(
+            "header says the {what} start at byte {offset}, but they start at byte {}",
+            c.pos
+        )));
+    }
+    Ok(())
+}
+
+/// Skip the zero bytes up to the next multiple of 8.
+fn skip_padding(c: &mut Cursor) -> Result<()> {
+    while !c.pos.is_multiple_of(8) {
+        if c.take(1, "padding")?[0] != 0 {
             return Err(Error::format(format!(
-                "{what} at byte {} runs past the end of the file",
-                self.pos
-            )));
-        };
-        let s = &self.bytes[self.pos..end];
-        self.pos = end;
-        Ok(s)
-    }
-    fn u32(&mut self, what: &str) -> Result<u32> {
-        Ok(u32::from_le_bytes(self.take(4, what)?.try_into().unwrap()))
-    }
-    fn u64(&mut self, what: &str) -> Result<u64> {
-        Ok(u64::from_le_bytes(self.take(8, what)?.try_into().unwrap()))
-    }
-    fn f64(&mut self, what: &str) -> Result<f64> {
-        Ok(f64::from_le_bytes(self.take(8, what)?.try_into().unwrap()))
-    }
-    fn string(&mut self, what: &str) -> Result<String> {
-        let len = self.u32(what)? as usize;
-        let raw = self.take(len, what)?;
-        String::from_utf8(raw.to_vec())
-            .map_err(|_| Error::format(format!("{what} is not valid UTF-8")))
-    }
-    /// Check that the writer's recorded offset matches where we are.
-    fn expect_at(&self, offset: u64, what: &str) -> Result<()> {
-        if offset != self.pos as u64 {
-            return Err(Error::format(format!(
-                "header says the {what} start at byte {offset}, but they start at byte {}",
-                self.pos
+                "padding byte {} is not zero",
+                c.pos - 1
             )));
         }
-        Ok(())
     }
-    fn skip_padding(&mut self) -> Result<()> {
-        while !self.pos.is_multiple_of(8) {
-            if self.take(1, "padding")?[0] != 0 {
-                return Err(Error::format(format!(
-                    "padding byte {} is not zero",
-                    self.pos - 1
-                )));
-            }
-        }
-        Ok(())
-    }
+    Ok(())
 }
 
 /// Decode a whole version 1 file (checksum checked).
@@ -76,10 +52,7 @@ pub fn read_v1(bytes: &[u8]) -> Result<PvsData> {
     if bytes.len() < MAGIC.len() || bytes[..MAGIC.len()] != MAGIC {
         return Err(Error::format("not a citypvs .pvs file (bad magic bytes)"));
     }
-    let mut c = Cursor {
-        bytes,
-        pos: MAGIC.len(),
-    };
+    let mut c = Cursor::at(bytes, MAGIC.len(), "file");
     if c.u32("version")? != 1 {
         return Err(Error::format("not a version 1 file"));
     }
@@ -92,10 +65,7 @@ pub fn read_v1(bytes: &[u8]) -> Result<PvsData> {
     if Sha256::digest(&bytes[..body]).as_slice() != &bytes[body..] {
         return Err(Error::format("checksum mismatch"));
     }
-    let c = &mut Cursor {
-        bytes: &bytes[..body],
-        pos: c.pos,
-    };
+    let c = &mut Cursor::at(&bytes[..body], c.pos, "file");
     let (info, object_ids, cells, ranges) = parse_body(c, body)?;
     let visible = (0..cells.len())
         .map(|k| {
@@ -136,13 +106,13 @@ fn parse_body(c: &mut Cursor, body: usize) -> Result<Body> {
     let records_offset = c.u64("records offset")?;
     let records_bytes = c.u64("records length")?;
     debug_assert_eq!(c.pos, V1_HEADER_BYTES);
-    let tool_version = c.string("tool version")?;
+    let tool_version = v1_string(c, "tool version")?;
     let frame = match (kind, has_crs) {
         (0, 0) => Frame::LonLat { lon0: fx, lat0: fy },
         (1, 0 | 1) => Frame::Metric {
             origin: DVec2::new(fx, fy),
             crs: if has_crs == 1 {
-                Some(c.string("CRS name")?)
+                Some(v1_string(c, "CRS name")?)
             } else {
                 None
             },
@@ -156,7 +126,7 @@ fn parse_body(c: &mut Cursor, body: usize) -> Result<Body> {
     if !(fx.is_finite() && fy.is_finite()) {
         return Err(Error::format("frame origin is not finite"));
     }
-    c.expect_at(objects_offset, "object ids")?;
+    expect_at(c, objects_offset, "object ids")?;
     // Each id needs at least its 4-byte length: bound the count before allocating.
     if object_count > (body - c.pos) / 4 {
         return Err(Error::format(format!(
@@ -165,10 +135,10 @@ fn parse_body(c: &mut Cursor, body: usize) -> Result<Body> {
     }
     let mut object_ids = Vec::with_capacity(object_count);
     for k in 0..object_count {
-        object_ids.push(c.string(&format!("id of object {k}"))?);
+        object_ids.push(v1_string(c, &format!("id of object {k}"))?);
     }
-    c.skip_padding()?;
-    c.expect_at(cells_offset, "cells")?;
+    skip_padding(c)?;
+    expect_at(c, cells_offset, "cells")?;
     if cell_count > (body - c.pos) / 56 {
         return Err(Error::format(format!(
             "header claims {cell_count} cells, more than the file can hold"
@@ -188,7 +158,7 @@ fn parse_body(c: &mut Cursor, body: usize) -> Result<Body> {
         }
         cells.push(tri);
     }
-    c.expect_at(index_offset, "record offsets")?;
+    expect_at(c, index_offset, "record offsets")?;
     let index_end = index_offset + 8 * (cell_count as u64 + 1);
     if records_offset != index_end {
         return Err(Error::format(format!(
@@ -238,22 +208,16 @@ fn parse_body(c: &mut Cursor, body: usize) -> Result<Body> {
 /// it): only so that measurements can set version 2 beside version 1 and
 /// general-purpose compressors of it. [`read_v1`] reads it back.
 pub fn write_v1(data: &PvsData) -> Vec<u8> {
-    fn u32s(out: &mut Vec<u8>, v: u32) {
-        out.extend_from_slice(&v.to_le_bytes());
-    }
-    fn u64s(out: &mut Vec<u8>, v: u64) {
-        out.extend_from_slice(&v.to_le_bytes());
-    }
     fn strs(out: &mut Vec<u8>, s: &str) {
-        u32s(out, s.len() as u32);
+        put_u32(out, s.len() as u32);
         out.extend_from_slice(s.as_bytes());
     }
     let info = &data.info;
     let mut out = Vec::new();
     out.extend_from_slice(&MAGIC);
-    u32s(&mut out, 1);
-    u32s(&mut out, 0);
-    u64s(&mut out, 0); // file length, patched below
+    put_u32(&mut out, 1);
+    put_u32(&mut out, 0);
+    put_u64(&mut out, 0); // file length, patched below
     for v in [
         info.eps,
         info.eye_height,
@@ -267,13 +231,13 @@ pub fn write_v1(data: &PvsData) -> Vec<u8> {
         Frame::LonLat { lon0, lat0 } => (0, None, *lon0, *lat0),
         Frame::Metric { origin, crs } => (1, crs.as_deref(), origin.x, origin.y),
     };
-    u32s(&mut out, kind);
-    u32s(&mut out, u32::from(crs.is_some()));
+    put_u32(&mut out, kind);
+    put_u32(&mut out, u32::from(crs.is_some()));
     out.extend_from_slice(&x.to_le_bytes());
     out.extend_from_slice(&y.to_le_bytes());
     out.extend_from_slice(&info.source_hash);
-    u32s(&mut out, data.object_ids.len() as u32);
-    u32s(&mut out, data.cells.len() as u32);
+    put_u32(&mut out, data.object_ids.len() as u32);
+    put_u32(&mut out, data.cells.len() as u32);
     let offsets_at = out.len();
     out.resize(V1_HEADER_BYTES, 0);
     strs(&mut out, &info.tool_version);
@@ -298,12 +262,12 @@ pub fn write_v1(data: &PvsData) -> Vec<u8> {
     let records_at = index + 8 * (data.cells.len() as u64 + 1);
     let mut records = Vec::new();
     let mut at = 0u64;
-    u64s(&mut out, 0);
+    put_u64(&mut out, 0);
     for set in &data.visible {
         let r = super::codec::encode_record(set, data.object_ids.len());
         at += r.len() as u64;
         records.extend_from_slice(&r);
-        u64s(&mut out, at);
+        put_u64(&mut out, at);
     }
     out.extend_from_slice(&records);
     for (k, v) in [objects, cells, index, records_at, at]
