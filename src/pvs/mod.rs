@@ -56,9 +56,6 @@ pub struct BakeInfo {
 }
 
 impl BakeInfo {
-    /// Check every header number: finite, positive or non-negative as its
-    /// meaning needs, and the pixel small enough for eps (pixel * sqrt(2) / 2
-    /// <= eps). The writer and the reader both call this.
     /// The settings this header records, checked like any settings (a file
     /// is user data), with the region the caller gives for it (the header
     /// holds only the region's hash).
@@ -76,6 +73,9 @@ impl BakeInfo {
         .map_err(|e| Error::format(format!("the file's header is not a valid bake: {e}")))
     }
 
+    /// Check every header number: finite, positive or non-negative as its
+    /// meaning needs, and the pixel small enough for eps (pixel * sqrt(2) / 2
+    /// <= eps), and the frame. The writer and the reader both call this.
     pub fn validate(&self) -> Result<()> {
         // The numbers go through the one settings check (docs/METHOD.md §4);
         // the frame is checked here.
