@@ -66,13 +66,7 @@ impl SetTally {
 pub fn bake_info(scene: &Scene) -> BakeInfo {
     let s = &scene.settings;
     BakeInfo {
-        eps: s.eps,
-        eye_height: s.eye_height,
-        pixel: s.pixel,
-        max_cell_edge: s.max_cell_edge,
-        margin: s.margin,
-        near_field: s.near_field,
-        min_gap: s.min_gap,
+        numbers: *s.numbers(),
         frame: scene.city.frame.clone(),
         source_hash: scene.city.source_hash,
         region_hash: s.region_hash(),

@@ -62,4 +62,4 @@ pub mod verify;
 pub mod visibility;
 
 pub use error::{Error, ErrorKind, Result};
-pub use settings::{RawSettings, Settings};
+pub use settings::{BakeNumbers, RawSettings, Settings};

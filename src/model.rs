@@ -171,6 +171,28 @@ pub fn distance_to_segment(p: DVec2, a: DVec2, b: DVec2) -> f64 {
     (a + ab * t).distance(p)
 }
 
+/// The fewest equal pieces (at least one) the segment from `a` to `b` can
+/// be cut into so that none is longer than `max_piece`.
+pub fn piece_count(a: DVec2, b: DVec2, max_piece: f64) -> usize {
+    let len = a.distance(b);
+    let mut n = (len / max_piece).ceil().max(1.0) as usize;
+    if len / n as f64 > max_piece {
+        n += 1;
+    }
+    n
+}
+
+/// The `n + 1` points that cut the segment from `a` to `b` into `n` equal
+/// pieces, in order: `a` and `b` exactly at the ends, `a + (b - a) k / n`
+/// between. The one way every stage splits a segment.
+pub fn cut_points(a: DVec2, b: DVec2, n: usize) -> impl Iterator<Item = DVec2> {
+    (0..=n).map(move |k| match k {
+        0 => a,
+        k if k == n => b,
+        k => a + (b - a) * (k as f64 / n as f64),
+    })
+}
+
 /// Iterate over the edges `(a, b)` of a ring, closing it.
 pub fn ring_edges(ring: &[DVec2]) -> impl Iterator<Item = (DVec2, DVec2)> + '_ {
     let n = ring.len();

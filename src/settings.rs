@@ -48,11 +48,13 @@ pub struct RawSettings {
     pub region: Option<Polygon>,
 }
 
-/// Validated bake settings. Construct with [`Settings::new`] (or
-/// [`Settings::default`]); the fields are public to read, and a value
-/// built any other way is never checked again.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Settings {
+/// The seven numbers that shape a bake, as one plain record. Inside a
+/// [`Settings`] they have been validated; in a file header
+/// ([`crate::pvs::BakeInfo`]) or a shard's key they are only what was
+/// stored, and go through [`Settings::new`] before use.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+#[cfg_attr(feature = "bake", derive(bincode::Encode, bincode::Decode))]
+pub struct BakeNumbers {
     /// Erosion distance eps in metres; samples are at most 2 eps apart.
     pub eps: f64,
     /// Cull-map pixel size k in metres, with k * sqrt(2) / 2 <= eps.
@@ -67,8 +69,67 @@ pub struct Settings {
     pub near_field: f64,
     /// Gaps between footprints narrower than this are not free space.
     pub min_gap: f64,
+}
+
+impl BakeNumbers {
+    /// The seven numbers, each with the name of its command-line flag, in
+    /// one fixed order: for anything that lists or compares settings.
+    pub fn named(&self) -> [(&'static str, f64); 7] {
+        [
+            ("eps", self.eps),
+            ("pixel", self.pixel),
+            ("eye-height", self.eye_height),
+            ("max-cell-edge", self.max_cell_edge),
+            ("margin", self.margin),
+            ("near-field", self.near_field),
+            ("min-gap", self.min_gap),
+        ]
+    }
+
+    /// The numbers that differ bit for bit from `other`'s: name, this
+    /// value, the other value.
+    pub fn changed(&self, other: &BakeNumbers) -> Vec<(&'static str, f64, f64)> {
+        self.named()
+            .into_iter()
+            .zip(other.named())
+            .filter(|((_, a), (_, b))| a.to_bits() != b.to_bits())
+            .map(|((name, a), (_, b))| (name, a, b))
+            .collect()
+    }
+}
+
+impl RawSettings {
+    /// Raw settings with every number given, e.g. to validate a stored
+    /// record or to change one number and validate again.
+    pub fn given(numbers: &BakeNumbers, region: Option<Polygon>) -> RawSettings {
+        RawSettings {
+            eps: Some(numbers.eps),
+            pixel: Some(numbers.pixel),
+            eye_height: Some(numbers.eye_height),
+            max_cell_edge: Some(numbers.max_cell_edge),
+            margin: Some(numbers.margin),
+            near_field: Some(numbers.near_field),
+            min_gap: Some(numbers.min_gap),
+            region,
+        }
+    }
+}
+
+/// Validated bake settings: the numbers (read through `Deref`, e.g.
+/// `settings.eps`) and the region. Construct with [`Settings::new`] (or
+/// [`Settings::default`]); nothing downstream checks them again.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Settings {
+    numbers: BakeNumbers,
     /// The region of interest in local metres, if one was given.
     pub region: Option<Polygon>,
+}
+
+impl std::ops::Deref for Settings {
+    type Target = BakeNumbers;
+    fn deref(&self) -> &BakeNumbers {
+        &self.numbers
+    }
 }
 
 /// The largest pixel size allowed by eps: k * sqrt(2) / 2 <= eps, with a
@@ -184,55 +245,28 @@ impl Settings {
         }
         let min_gap = non_negative("min-gap", raw.min_gap.unwrap_or(DEFAULT_MIN_GAP), 100.0)?;
         Ok(Settings {
-            eps,
-            pixel,
-            eye_height,
-            max_cell_edge,
-            margin,
-            near_field,
-            min_gap,
+            numbers: BakeNumbers {
+                eps,
+                pixel,
+                eye_height,
+                max_cell_edge,
+                margin,
+                near_field,
+                min_gap,
+            },
             region: raw.region,
         })
+    }
+
+    /// The validated numbers, as one record.
+    pub fn numbers(&self) -> &BakeNumbers {
+        &self.numbers
     }
 
     /// The raw form of these settings (every value given), e.g. to change one
     /// and validate again.
     pub fn to_raw(&self) -> RawSettings {
-        RawSettings {
-            eps: Some(self.eps),
-            pixel: Some(self.pixel),
-            eye_height: Some(self.eye_height),
-            max_cell_edge: Some(self.max_cell_edge),
-            margin: Some(self.margin),
-            near_field: Some(self.near_field),
-            min_gap: Some(self.min_gap),
-            region: self.region.clone(),
-        }
-    }
-
-    /// The seven numbers, each with the name of its command-line flag, in
-    /// one fixed order: for anything that lists or compares settings.
-    pub fn named_numbers(&self) -> [(&'static str, f64); 7] {
-        [
-            ("eps", self.eps),
-            ("pixel", self.pixel),
-            ("eye-height", self.eye_height),
-            ("max-cell-edge", self.max_cell_edge),
-            ("margin", self.margin),
-            ("near-field", self.near_field),
-            ("min-gap", self.min_gap),
-        ]
-    }
-
-    /// The numbers that differ bit for bit from `other`'s: name, this
-    /// value, the other value.
-    pub fn changed_numbers(&self, other: &Settings) -> Vec<(&'static str, f64, f64)> {
-        self.named_numbers()
-            .into_iter()
-            .zip(other.named_numbers())
-            .filter(|((_, a), (_, b))| a.to_bits() != b.to_bits())
-            .map(|((name, a), (_, b))| (name, a, b))
-            .collect()
+        RawSettings::given(&self.numbers, self.region.clone())
     }
 
     /// Largest spacing of samples along a cell edge: 2 eps.

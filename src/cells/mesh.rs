@@ -12,7 +12,7 @@ use spade::{
 
 use super::bisect::{Mesh, bisect_long_edges};
 use super::lattice::lattice_points;
-use crate::model::{MultiPolygon, Rect, multipolygon_area, polygon_edges};
+use crate::model::{MultiPolygon, Rect, cut_points, multipolygon_area, piece_count, polygon_edges};
 use crate::{Error, Result};
 
 type Cdt = ConstrainedDelaunayTriangulation<Point2<f64>>;
@@ -107,9 +107,10 @@ fn constrained(free: &MultiPolygon, max_edge: f64) -> std::result::Result<Cdt, I
         let start = vertices.len();
         for (i, &a) in ring.iter().enumerate() {
             let b = ring[(i + 1) % ring.len()];
-            let pieces = ((b - a).length() / max_edge).ceil().max(1.0) as usize;
-            for k in 0..pieces {
-                let p = a + (b - a) * (k as f64 / pieces as f64);
+            let pieces = piece_count(a, b, max_edge);
+            // Each edge gives its start and inner points; the next edge
+            // gives this one's end.
+            for p in cut_points(a, b, pieces).take(pieces) {
                 vertices.push(Point2::new(p.x, p.y));
             }
         }

@@ -14,7 +14,7 @@ use geo::bool_ops::FillRule;
 use glam::DVec2;
 
 use crate::geometry::convert::{multipolygon_from_geo, multipolygon_to_geo};
-use crate::model::{MultiPolygon, Polygon, Ring, ring_signed_area2};
+use crate::model::{MultiPolygon, Polygon, Ring, cut_points, piece_count, ring_signed_area2};
 
 /// Distance in metres that the kept free space stays away from every
 /// footprint (and from the region's outline) on top of the opening. It
@@ -248,10 +248,10 @@ impl Grid {
         if self.active.is_empty() {
             return;
         }
-        let steps = ((a.distance(b) / (0.5 * self.size)).ceil() as usize).max(1);
+        let steps = piece_count(a, b, 0.5 * self.size);
         let mut keys: Vec<(i64, i64)> = Vec::new();
-        for s in 0..=steps {
-            let (kx, ky) = self.key(a + (b - a) * (s as f64 / steps as f64));
+        for p in cut_points(a, b, steps) {
+            let (kx, ky) = self.key(p);
             for dx in -1..=1 {
                 for dy in -1..=1 {
                     if self.active.contains(&(kx + dx, ky + dy)) {

@@ -12,7 +12,9 @@
 use glam::DVec2;
 
 use super::narrow::{Grid, orient, segments_meet};
-use crate::model::{MultiPolygon, Polygon, Ring, point_in_ring, ring_signed_area2};
+use crate::model::{
+    MultiPolygon, Polygon, Ring, cut_points, piece_count, point_in_ring, ring_signed_area2,
+};
 
 /// Vertices within this fraction of min_gap of a line (6 cm by default) are
 /// straightened to it: more than the largest facade offset of neighbours
@@ -115,8 +117,7 @@ pub fn straighten(free: &MultiPolygon, min_gap: f64) -> MultiPolygon {
 
 /// Points from a to b at most `step` apart, both ends included.
 fn samples(a: DVec2, b: DVec2, step: f64, out: &mut Vec<DVec2>) {
-    let n = ((a.distance(b) / step).ceil() as usize).max(1);
-    out.extend((0..=n).map(|s| a + (b - a) * (s as f64 / n as f64)));
+    out.extend(cut_points(a, b, piece_count(a, b, step)));
 }
 
 /// A run of the ring from vertex `start` to vertex `end` (indices modulo

@@ -48,13 +48,9 @@ struct HeaderJson<'a> {
     source_sha256: String,
     frame: FrameJson<'a>,
     frame_description: String,
-    eps: f64,
-    eye_height: f64,
-    pixel: f64,
-    max_cell_edge: f64,
-    margin: f64,
-    near_field: f64,
-    min_gap: f64,
+    /// eps, pixel, eye_height, max_cell_edge, margin, near_field, min_gap.
+    #[serde(flatten)]
+    numbers: crate::BakeNumbers,
     /// SHA-256 of the region polygon, or null when the bake had no region.
     region_sha256: Option<String>,
 }
@@ -112,13 +108,7 @@ fn header(reader: &PvsReader) -> HeaderJson<'_> {
             },
         },
         frame_description: info.frame.describe(),
-        eps: info.eps,
-        eye_height: info.eye_height,
-        pixel: info.pixel,
-        max_cell_edge: info.max_cell_edge,
-        margin: info.margin,
-        near_field: info.near_field,
-        min_gap: info.min_gap,
+        numbers: info.numbers,
         region_sha256: (info.region_hash != [0; 32]).then(|| hex(&info.region_hash)),
     }
 }
@@ -287,7 +277,8 @@ fn print_text(
     let _ = writeln!(
         text,
         "bake:         eps {} m, eye height {} m, pixel {} m, max cell edge {} m, margin {} m, near field {} m, min gap {} m",
-        h.eps, h.eye_height, h.pixel, h.max_cell_edge, h.margin, h.near_field, h.min_gap
+        h.numbers.eps, h.numbers.eye_height, h.numbers.pixel, h.numbers.max_cell_edge, h.numbers.margin,
+        h.numbers.near_field, h.numbers.min_gap
     );
     let _ = writeln!(
         text,

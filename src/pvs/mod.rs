@@ -36,15 +36,8 @@ pub use write::{
 /// The bake parameters and provenance stored in the header.
 #[derive(Clone, Debug, PartialEq)]
 pub struct BakeInfo {
-    pub eps: f64,
-    pub eye_height: f64,
-    pub pixel: f64,
-    pub max_cell_edge: f64,
-    pub margin: f64,
-    /// Half-size in metres of the near-field cull map around each sample.
-    pub near_field: f64,
-    /// Smallest gap in metres kept open between blocks (0 = none).
-    pub min_gap: f64,
+    /// The bake's numbers as stored (checked by [`BakeInfo::validate`]).
+    pub numbers: crate::BakeNumbers,
     /// Map from local metres back to the input frame.
     pub frame: Frame,
     /// SHA-256 of the input file.
@@ -60,16 +53,7 @@ impl BakeInfo {
     /// is user data), with the region the caller gives for it (the header
     /// holds only the region's hash).
     pub fn settings(&self, region: Option<crate::model::Polygon>) -> Result<crate::Settings> {
-        crate::Settings::new(crate::RawSettings {
-            eps: Some(self.eps),
-            pixel: Some(self.pixel),
-            eye_height: Some(self.eye_height),
-            max_cell_edge: Some(self.max_cell_edge),
-            margin: Some(self.margin),
-            near_field: Some(self.near_field),
-            min_gap: Some(self.min_gap),
-            region,
-        })
+        crate::Settings::new(crate::RawSettings::given(&self.numbers, region))
         .map_err(|e| Error::format(format!("the file's header is not a valid bake: {e}")))
     }
 

@@ -16,6 +16,7 @@ use super::blocks::{BlockDecoder, read_varint};
 use super::grid::CellGrid;
 use super::{BakeInfo, FORMAT_VERSION, HEADER_BYTES, MAGIC, MAX_BLOCK_CELLS, SECTION_NAMES};
 use crate::frame::Frame;
+use crate::BakeNumbers;
 use crate::{Error, Result};
 
 /// Reads a `.pvs` file; each cell's visible set is decoded on demand.
@@ -450,13 +451,15 @@ fn parse(body: &[u8]) -> Result<Parsed> {
         },
     };
     let info = BakeInfo {
-        eps: params[0],
-        eye_height: params[1],
-        pixel: params[2],
-        max_cell_edge: params[3],
-        margin: params[4],
-        near_field: params[5],
-        min_gap: params[6],
+        numbers: BakeNumbers {
+            eps: params[0],
+            eye_height: params[1],
+            pixel: params[2],
+            max_cell_edge: params[3],
+            margin: params[4],
+            near_field: params[5],
+            min_gap: params[6],
+        },
         frame,
         source_hash,
         region_hash,

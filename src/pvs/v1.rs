@@ -12,6 +12,7 @@ use super::read::Cursor;
 use super::write::{put_u32, put_u64};
 use super::{BakeInfo, MAGIC, PvsData};
 use crate::frame::Frame;
+use crate::BakeNumbers;
 
 const V1_HEADER_BYTES: usize = 168;
 use crate::{Error, Result};
@@ -188,13 +189,15 @@ fn parse_body(c: &mut Cursor, body: usize) -> Result<Body> {
         )));
     }
     let info = BakeInfo {
-        eps: params[0],
-        eye_height: params[1],
-        pixel: params[2],
-        max_cell_edge: params[3],
-        margin: params[4],
-        near_field: 0.0,
-        min_gap: 0.0,
+        numbers: BakeNumbers {
+            eps: params[0],
+            eye_height: params[1],
+            pixel: params[2],
+            max_cell_edge: params[3],
+            margin: params[4],
+            near_field: 0.0,
+            min_gap: 0.0,
+        },
         frame,
         source_hash,
         region_hash: [0; 32],
@@ -219,11 +222,11 @@ pub fn write_v1(data: &PvsData) -> Vec<u8> {
     put_u32(&mut out, 0);
     put_u64(&mut out, 0); // file length, patched below
     for v in [
-        info.eps,
-        info.eye_height,
-        info.pixel,
-        info.max_cell_edge,
-        info.margin,
+        info.numbers.eps,
+        info.numbers.eye_height,
+        info.numbers.pixel,
+        info.numbers.max_cell_edge,
+        info.numbers.margin,
     ] {
         out.extend_from_slice(&v.to_le_bytes());
     }

@@ -209,13 +209,13 @@ impl PvsWriter {
         put_u32(&mut out, 0); // flags
         put_u64(&mut out, 0); // file_bytes, patched by finish
         for v in [
-            info.eps,
-            info.eye_height,
-            info.pixel,
-            info.max_cell_edge,
-            info.margin,
-            info.near_field,
-            info.min_gap,
+            info.numbers.eps,
+            info.numbers.eye_height,
+            info.numbers.pixel,
+            info.numbers.max_cell_edge,
+            info.numbers.margin,
+            info.numbers.near_field,
+            info.numbers.min_gap,
         ] {
             put_f64(&mut out, v);
         }

@@ -70,7 +70,7 @@ pub fn diff(a: &PvsReader, b: &PvsReader) -> Result<PvsDiff> {
     let (ia, ib) = (a.info(), b.info());
     // The files were checked when opened, so their settings are valid.
     let (sa, sb) = (ia.settings(None)?, ib.settings(None)?);
-    for (name, x, y) in sa.changed_numbers(&sb) {
+    for (name, x, y) in sa.changed(&sb) {
         out.header_changes.push(format!("{name}: {x} -> {y}"));
     }
     if ia.source_hash != ib.source_hash {

@@ -21,7 +21,7 @@ use sha2::{Digest, Sha256};
 use crate::error::{Error, Result};
 use crate::input::Frame;
 use crate::pvs::BakeInfo;
-use crate::settings::Settings;
+use crate::settings::{BakeNumbers, Settings};
 
 /// The first eight bytes of every shard and checkpoint file.
 pub const PART_MAGIC: [u8; 8] = *b"CPVSPART";
@@ -50,13 +50,8 @@ pub enum PartKind {
 pub struct BakeKey {
     /// SHA-256 of the input file.
     pub source_hash: [u8; 32],
-    pub eps: f64,
-    pub pixel: f64,
-    pub eye_height: f64,
-    pub max_cell_edge: f64,
-    pub margin: f64,
-    pub near_field: f64,
-    pub min_gap: f64,
+    /// Every bake number.
+    pub numbers: BakeNumbers,
     /// [`Settings::region_hash`].
     pub region_hash: [u8; 32],
     /// The citypvs version that baked.
@@ -68,13 +63,7 @@ impl BakeKey {
     pub fn of(source_hash: [u8; 32], settings: &Settings) -> BakeKey {
         BakeKey {
             source_hash,
-            eps: settings.eps,
-            pixel: settings.pixel,
-            eye_height: settings.eye_height,
-            max_cell_edge: settings.max_cell_edge,
-            margin: settings.margin,
-            near_field: settings.near_field,
-            min_gap: settings.min_gap,
+            numbers: *settings.numbers(),
             region_hash: settings.region_hash(),
             tool_version: env!("CARGO_PKG_VERSION").to_string(),
         }
@@ -86,19 +75,7 @@ impl BakeKey {
         if self.source_hash != other.source_hash {
             out.push("input");
         }
-        for (name, a, b) in [
-            ("eps", self.eps, other.eps),
-            ("pixel", self.pixel, other.pixel),
-            ("eye-height", self.eye_height, other.eye_height),
-            ("max-cell-edge", self.max_cell_edge, other.max_cell_edge),
-            ("margin", self.margin, other.margin),
-            ("near-field", self.near_field, other.near_field),
-            ("min-gap", self.min_gap, other.min_gap),
-        ] {
-            if a.to_bits() != b.to_bits() {
-                out.push(name);
-            }
-        }
+        out.extend(self.numbers.changed(&other.numbers).into_iter().map(|(name, _, _)| name));
         if self.region_hash != other.region_hash {
             out.push("region");
         }
@@ -313,13 +290,7 @@ impl Part {
     /// The `.pvs` header of the bake this part belongs to.
     pub fn bake_info(&self) -> BakeInfo {
         BakeInfo {
-            eps: self.key.eps,
-            eye_height: self.key.eye_height,
-            pixel: self.key.pixel,
-            max_cell_edge: self.key.max_cell_edge,
-            margin: self.key.margin,
-            near_field: self.key.near_field,
-            min_gap: self.key.min_gap,
+            numbers: self.key.numbers,
             frame: self.frame.to_frame(),
             source_hash: self.key.source_hash,
             region_hash: self.key.region_hash,

@@ -56,7 +56,7 @@ pub fn check_previous(scene: &Scene, old: &PvsReader, path: &Path) -> Result<()>
     // The previous file was checked when opened, so its settings are valid.
     let mut differ: Vec<String> = was
         .settings(None)?
-        .changed_numbers(&scene.settings)
+        .changed(&scene.settings)
         .into_iter()
         .map(|(name, a, b)| format!("{name} {a} (now {b})"))
         .collect();

@@ -81,7 +81,7 @@ pub fn verify_file(
     let mut report = verify_with_progress(
         &city.buildings,
         &reader.cell_triangles(),
-        info.eye_height,
+        info.numbers.eye_height,
         &visible,
         &check.options,
         tick,
@@ -159,9 +159,9 @@ fn check_cells(file: &FileUnderTest, region: Option<Polygon>) -> Result<()> {
          or a file not made by `citypvs bake` (--any-cells judges its cells as they are)",
         theirs.len(),
         ours.len(),
-        info.eps,
-        info.max_cell_edge,
-        info.margin,
+        info.numbers.eps,
+        info.numbers.max_cell_edge,
+        info.numbers.margin,
         if with_region {
             " and this --region"
         } else {

@@ -7,7 +7,7 @@
 use glam::DVec2;
 
 use super::index::{PixelGrid, Span};
-use crate::model::Rect;
+use crate::model::{Rect, cut_points, piece_count};
 
 /// Pixel centres closer than this (metres) to a shadow quad's border are
 /// left out of it, so floating-point rounding never extends a shadow.
@@ -218,13 +218,11 @@ impl CullWindow {
     /// the segment `a`-`b` (a test for dropping occluded occluders; dropping
     /// any occluder is always conservative).
     pub fn segment_hidden(&self, a: DVec2, b: DVec2, top: f64) -> bool {
-        let steps = ((a.distance(b) / (0.5 * self.grid.pixel)).ceil() as usize).max(1);
-        (0..=steps).all(
-            |s| match self.at_point(a.lerp(b, s as f64 / steps as f64)) {
-                Some(u) => u as f64 >= top,
-                None => false,
-            },
-        )
+        let steps = piece_count(a, b, 0.5 * self.grid.pixel);
+        cut_points(a, b, steps).all(|p| match self.at_point(p) {
+            Some(u) => u as f64 >= top,
+            None => false,
+        })
     }
 
     /// Test an object's pixels that fall inside the window: false as soon as

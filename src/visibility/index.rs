@@ -7,7 +7,9 @@ use glam::DVec2;
 
 use crate::geometry::Occluder;
 use crate::grid::{CellLists, UniformGrid};
-use crate::model::{Building, Rect, distance_to_segment, point_in_multipolygon, polygon_edges};
+use crate::model::{
+    Building, Rect, cut_points, distance_to_segment, piece_count, point_in_multipolygon, polygon_edges,
+};
 
 /// One edge of a shrunk occluder level, with the solid on its left.
 #[derive(Clone, Copy, Debug)]
@@ -303,18 +305,10 @@ fn collect_edges(occluders: &[Occluder]) -> Vec<OccluderEdge> {
                 let mut ring_pos = 0;
                 for (i, &a) in ring.iter().enumerate() {
                     let b = ring[(i + 1) % ring.len()];
-                    let pieces = (a.distance(b) / MAX_EDGE_PIECE).ceil().max(1.0) as usize;
-                    for k in 0..pieces {
-                        let p = if k == 0 {
-                            a
-                        } else {
-                            a.lerp(b, k as f64 / pieces as f64)
-                        };
-                        let q = if k + 1 == pieces {
-                            b
-                        } else {
-                            a.lerp(b, (k + 1) as f64 / pieces as f64)
-                        };
+                    let pieces = piece_count(a, b, MAX_EDGE_PIECE);
+                    let mut from = a;
+                    for q in cut_points(a, b, pieces).skip(1) {
+                        let p = std::mem::replace(&mut from, q);
                         let next = edges.len() as u32 + 1;
                         edges.push(OccluderEdge {
                             a: p,

@@ -7,6 +7,8 @@ use std::collections::HashMap;
 
 use glam::DVec2;
 
+use crate::model::{cut_points, piece_count};
+
 /// The distinct vertices and edges of a triangle mesh, and which of them
 /// bound each cell.
 #[derive(Clone, Debug)]
@@ -72,10 +74,8 @@ impl MeshTopology {
 /// Points strictly between `a` and `b` such that, with `a` and `b`, no two
 /// consecutive points are more than `max_spacing` apart.
 pub fn interior_samples(a: DVec2, b: DVec2, max_spacing: f64) -> Vec<DVec2> {
-    let segments = segment_count(a, b, max_spacing);
-    (1..segments)
-        .map(|i| a.lerp(b, i as f64 / segments as f64))
-        .collect()
+    let pieces = piece_count(a, b, max_spacing);
+    cut_points(a, b, pieces).skip(1).take(pieces - 1).collect()
 }
 
 /// The sample points of one cell's top edges, seen from above: each corner
@@ -92,18 +92,7 @@ pub fn cell_sample_points(t: &[DVec2; 3], max_spacing: f64) -> Vec<DVec2> {
 
 /// How many points [`interior_samples`] gives.
 pub fn interior_sample_count(a: DVec2, b: DVec2, max_spacing: f64) -> usize {
-    segment_count(a, b, max_spacing) - 1
-}
-
-/// The number of equal pieces the edge from `a` to `b` is cut into so that
-/// none is longer than `max_spacing`.
-fn segment_count(a: DVec2, b: DVec2, max_spacing: f64) -> usize {
-    let len = a.distance(b);
-    let mut segments = (len / max_spacing).ceil().max(1.0) as usize;
-    if len / segments as f64 > max_spacing {
-        segments += 1;
-    }
-    segments
+    piece_count(a, b, max_spacing) - 1
 }
 
 #[cfg(test)]

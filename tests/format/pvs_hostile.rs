@@ -218,13 +218,15 @@ fn baked_files_open_within_the_cap() {
 
 fn info() -> BakeInfo {
     BakeInfo {
-        eps: 1.0,
-        eye_height: 1.7,
-        pixel: 1.0,
-        max_cell_edge: 30.0,
-        margin: 50.0,
-        near_field: 64.0,
-        min_gap: 0.0,
+        numbers: citypvs::BakeNumbers {
+            eps: 1.0,
+            eye_height: 1.7,
+            pixel: 1.0,
+            max_cell_edge: 30.0,
+            margin: 50.0,
+            near_field: 64.0,
+            min_gap: 0.0,
+        },
         frame: citypvs::frame::Frame::Metric {
             origin: DVec2::ZERO,
             crs: None,

@@ -29,13 +29,15 @@ fn data() -> PvsData {
     PvsData {
         object_prints: Vec::new(),
         info: BakeInfo {
-            eps: 0.5,
-            eye_height: 1.6,
-            pixel: 0.25,
-            max_cell_edge: 120.0,
-            margin: 10.0,
-            near_field: 48.0,
-            min_gap: 0.0,
+            numbers: citypvs::BakeNumbers {
+                eps: 0.5,
+                eye_height: 1.6,
+                pixel: 0.25,
+                max_cell_edge: 120.0,
+                margin: 10.0,
+                near_field: 48.0,
+                min_gap: 0.0,
+            },
             frame: Frame::LonLat {
                 lon0: 26.94,
                 lat0: 60.47,

@@ -53,9 +53,9 @@ fn convert_and_measure() {
     if let Ok(out) = std::env::var("CITYPVS_V1_OUT") {
         std::fs::write(&out, &raw).unwrap();
     }
-    if data.info.near_field == 0.0 {
+    if data.info.numbers.near_field == 0.0 {
         // Version 1 did not store it; any valid value codes the same sets.
-        data.info.near_field = citypvs::settings::DEFAULT_NEAR_FIELD;
+        data.info.numbers.near_field = citypvs::settings::DEFAULT_NEAR_FIELD;
     }
     let n = data.object_ids.len();
     let cells = data.cells.len();

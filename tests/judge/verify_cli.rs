@@ -58,13 +58,15 @@ fn pvs(city_path: &Path, visible: [&[&str]; 4], ids: &[&str]) -> PvsData {
     PvsData {
         object_prints: Vec::new(),
         info: BakeInfo {
-            eps: 0.25,
-            eye_height: 1.7,
-            pixel: 0.35,
-            max_cell_edge: 60.0,
-            margin: 10.0,
-            near_field: 48.0,
-            min_gap: 0.0,
+            numbers: citypvs::BakeNumbers {
+                eps: 0.25,
+                eye_height: 1.7,
+                pixel: 0.35,
+                max_cell_edge: 60.0,
+                margin: 10.0,
+                near_field: 48.0,
+                min_gap: 0.0,
+            },
             frame: city.frame.clone(),
             source_hash: city.source_hash,
             region_hash: [0; 32],

@@ -21,13 +21,15 @@ fn data(ids: &[&str], cells: &[f64], visible: Vec<Vec<u32>>) -> PvsData {
     PvsData {
         object_prints: Vec::new(),
         info: BakeInfo {
-            eps: 1.0,
-            eye_height: 1.7,
-            pixel: 1.4,
-            max_cell_edge: 30.0,
-            margin: 50.0,
-            near_field: 48.0,
-            min_gap: 0.0,
+            numbers: citypvs::BakeNumbers {
+                eps: 1.0,
+                eye_height: 1.7,
+                pixel: 1.4,
+                max_cell_edge: 30.0,
+                margin: 50.0,
+                near_field: 48.0,
+                min_gap: 0.0,
+            },
             frame: Frame::Metric {
                 origin: DVec2::ZERO,
                 crs: None,
@@ -195,10 +197,10 @@ fn diff_names_every_changed_setting() {
     let d = dir.path();
     let a = data(&["a"], &[0.0], vec![vec![0]]);
     let mut b = data(&["a"], &[0.0], vec![vec![0]]);
-    b.info.near_field = 40.0;
-    b.info.min_gap = 0.5;
-    b.info.eps = 2.0;
-    b.info.pixel = 2.8;
+    b.info.numbers.near_field = 40.0;
+    b.info.numbers.min_gap = 0.5;
+    b.info.numbers.eps = 2.0;
+    b.info.numbers.pixel = 2.8;
     write_pvs(&d.join("a.pvs"), &a).unwrap();
     write_pvs(&d.join("b.pvs"), &b).unwrap();
     let (code, stdout, stderr) = diff(d, &["a.pvs", "b.pvs", "--json"]);
