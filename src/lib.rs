@@ -18,6 +18,7 @@
 //! | visibility | [`visibility`] | samples, cull maps, hierarchical horizon, per-cell PVS |
 //! | output | [`pvs`] | the `.pvs` file: format, compression, reading |
 //! | frames | [`frame`] | local metres to and from the input's coordinates |
+//! | GeoJSON out | [`export`] | the one GeoJSON writer (test cities, cell and occluder exports) |
 //! | judging | [`verify`] | independent dense point-sampling check of conservativeness |
 //! | test cities | [`generate`] | procedural cities |
 //! | pictures | [`render`] | PNG maps of cities, cells and PVS |
@@ -39,6 +40,8 @@ pub mod cells;
 #[cfg(feature = "bake")]
 pub mod cli;
 pub mod error;
+#[cfg(feature = "bake")]
+pub mod export;
 pub mod frame;
 #[cfg(feature = "bake")]
 pub mod generate;

@@ -220,68 +220,27 @@ impl PrepareSummary {
     }
 }
 
-fn ring_to_input(frame: &crate::input::Frame, ring: &[glam::DVec2]) -> serde_json::Value {
-    let mut coords: Vec<serde_json::Value> = ring
-        .iter()
-        .map(|p| {
-            let (x, y) = frame.to_input(*p);
-            serde_json::json!([x, y])
-        })
-        .collect();
-    if let Some(first) = coords.first().cloned() {
-        coords.push(first);
-    }
-    serde_json::Value::Array(coords)
-}
-
-fn polygon_to_input(
-    frame: &crate::input::Frame,
-    polygon: &crate::model::Polygon,
-) -> serde_json::Value {
-    let mut rings = vec![ring_to_input(frame, &polygon.exterior)];
-    rings.extend(polygon.holes.iter().map(|h| ring_to_input(frame, h)));
-    serde_json::Value::Array(rings)
-}
-
-fn feature_collection(features: Vec<serde_json::Value>) -> String {
-    serde_json::to_string(&serde_json::json!({ "type": "FeatureCollection", "features": features }))
-        .expect("GeoJSON serialises")
-}
-
 /// The view cells as GeoJSON in the input's frame, each with its index.
 pub fn cells_geojson(scene: &Scene) -> String {
-    let frame = &scene.city.frame;
-    let features = scene
-        .cells
-        .triangles
-        .iter()
-        .enumerate()
-        .map(|(i, t)| {
-            serde_json::json!({
-                "type": "Feature",
-                "properties": { "cell": i },
-                "geometry": { "type": "Polygon", "coordinates": [ring_to_input(frame, t)] },
-            })
-        })
-        .collect();
-    feature_collection(features)
+    use crate::export::{Feature, Geometry, feature_collection};
+    let features = scene.cells.triangles.iter().enumerate().map(|(i, t)| Feature {
+        id: None,
+        properties: format!("{{\"cell\":{i}}}"),
+        geometry: Geometry::Polygon(vec![t.as_slice()]),
+    });
+    feature_collection(&scene.city.frame, None, features)
 }
 
 /// The shrunk occluders as GeoJSON in the input's frame, with block, level and height.
 pub fn occluders_geojson(scene: &Scene) -> String {
-    let frame = &scene.city.frame;
-    let features = scene
-        .occluders
-        .iter()
-        .map(|o| {
-            let polygons: Vec<serde_json::Value> =
-                o.shape.iter().map(|p| polygon_to_input(frame, p)).collect();
-            serde_json::json!({
-                "type": "Feature",
-                "properties": { "block": o.block, "level": o.level, "height": o.height },
-                "geometry": { "type": "MultiPolygon", "coordinates": polygons },
-            })
-        })
-        .collect();
-    feature_collection(features)
+    use crate::export::{Feature, Geometry, feature_collection};
+    let features = scene.occluders.iter().map(|o| Feature {
+        id: None,
+        properties: format!(
+            "{{\"block\":{},\"level\":{},\"height\":{:?}}}",
+            o.block, o.level, o.height
+        ),
+        geometry: Geometry::MultiPolygon(o.shape.iter().map(Geometry::rings).collect()),
+    });
+    feature_collection(&scene.city.frame, None, features)
 }

@@ -1,27 +1,12 @@
-//! Writing generated buildings as an RFC 7946 FeatureCollection: lon/lat
-//! degrees with 7 decimals (about 1 cm), exterior rings counter-clockwise,
-//! holes clockwise, rings closed. A vertex's text depends only on its local
-//! coordinates, so vertices shared by neighbours stay identical.
-
-use std::fmt::Write;
-
-use glam::DVec2;
+//! Writing generated buildings as an RFC 7946 FeatureCollection (through
+//! [`crate::export`]): lon/lat degrees with 7 decimals (about 1 cm),
+//! exterior rings counter-clockwise, holes clockwise, rings closed. A
+//! vertex's text depends only on its local coordinates, so vertices shared
+//! by neighbours stay identical.
 
 use super::GeneratedBuilding;
+use crate::export::{Feature, Geometry, feature_collection, json_string};
 use crate::input::Frame;
-
-/// One closed ring as a JSON array of [lon, lat] pairs.
-fn write_ring(out: &mut String, ring: &[DVec2], frame: &Frame, decimals: usize) {
-    out.push('[');
-    for (i, p) in ring.iter().chain(ring.first()).enumerate() {
-        if i > 0 {
-            out.push(',');
-        }
-        let (lon, lat) = frame.to_input(*p);
-        let _ = write!(out, "[{lon:.decimals$},{lat:.decimals$}]");
-    }
-    out.push(']');
-}
 
 /// The whole FeatureCollection, one feature per line, 7 decimals.
 pub fn write(buildings: &[GeneratedBuilding], frame: &Frame) -> String {
@@ -34,26 +19,14 @@ pub fn write_with_decimals(
     frame: &Frame,
     decimals: usize,
 ) -> String {
-    let mut out = String::from("{\"type\":\"FeatureCollection\",\"features\":[\n");
-    for (i, b) in buildings.iter().enumerate() {
-        let _ = write!(
-            out,
-            "{{\"type\":\"Feature\",\"id\":\"{}\",\"properties\":{{\"height\":{:.1},\"kind\":\"{}\"}},\"geometry\":{{\"type\":\"Polygon\",\"coordinates\":[",
-            b.id,
+    let features = buildings.iter().map(|b| Feature {
+        id: Some(&b.id),
+        properties: format!(
+            "{{\"height\":{:.1},\"kind\":{}}}",
             b.height,
-            b.kind.name()
-        );
-        write_ring(&mut out, &b.footprint.exterior, frame, decimals);
-        for hole in &b.footprint.holes {
-            out.push(',');
-            write_ring(&mut out, hole, frame, decimals);
-        }
-        out.push_str("]}}");
-        if i + 1 < buildings.len() {
-            out.push(',');
-        }
-        out.push('\n');
-    }
-    out.push_str("]}\n");
-    out
+            json_string(b.kind.name())
+        ),
+        geometry: Geometry::Polygon(Geometry::rings(&b.footprint)),
+    });
+    feature_collection(frame, Some(decimals), features)
 }
