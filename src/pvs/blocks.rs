@@ -269,17 +269,7 @@ impl BlockEncoder {
                 let _ = self.rc.code_tree(&mut m.back_b, 8, b as u32);
             }
         }
-        let (done, row) = self.rows.split_at_mut(at);
-        let ra: &[u64] = if a > 0 {
-            &done[(k - a) * w..(k - a + 1) * w]
-        } else {
-            &self.zero
-        };
-        let rb: &[u64] = if b > 0 {
-            &done[(k - b) * w..(k - b + 1) * w]
-        } else {
-            ra
-        };
+        let (ra, rb, row) = reference_rows(&mut self.rows, &self.zero, w, k, a, b);
         let _ = code_set(&mut self.rc, m, self.n, ra, rb, self.seen.get(), row);
         self.seen.add(row);
         self.cells += 1;
@@ -294,6 +284,32 @@ impl BlockEncoder {
         self.seen = Seen::new(self.n);
         std::mem::take(&mut self.rc).finish()
     }
+}
+
+/// The rows of a block's cells (`w` words each) split at cell `k`: its
+/// two reference sets, `a` and `b` cells back (`a` = 0: the empty set
+/// `zero`; `b` = 0: the same as `a`), and its own row from there on.
+fn reference_rows<'r>(
+    rows: &'r mut [u64],
+    zero: &'r [u64],
+    w: usize,
+    k: usize,
+    a: usize,
+    b: usize,
+) -> (&'r [u64], &'r [u64], &'r mut [u64]) {
+    let (done, row) = rows.split_at_mut(k * w);
+    let done: &'r [u64] = done;
+    let ra = if a > 0 {
+        &done[(k - a) * w..(k - a + 1) * w]
+    } else {
+        zero
+    };
+    let rb = if b > 0 {
+        &done[(k - b) * w..(k - b + 1) * w]
+    } else {
+        ra
+    };
+    (ra, rb, row)
 }
 
 fn hamming(a: &[u64], b: &[u64]) -> u32 {
@@ -365,17 +381,7 @@ impl<'a> BlockDecoder<'a> {
         }
         let at = k * w;
         self.rows.resize(at + w, 0);
-        let (done, row) = self.rows.split_at_mut(at);
-        let ra: &[u64] = if a > 0 {
-            &done[(k - a) * w..(k - a + 1) * w]
-        } else {
-            &self.zero
-        };
-        let rb: &[u64] = if b > 0 {
-            &done[(k - b) * w..(k - b + 1) * w]
-        } else {
-            ra
-        };
+        let (ra, rb, row) = reference_rows(&mut self.rows, &self.zero, w, k, a, b);
         code_set(&mut self.rc, m, self.n, ra, rb, self.seen.get(), row).map_err(past_end)?;
         self.seen.add(row);
         set.clear();

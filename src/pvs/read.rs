@@ -22,22 +22,10 @@ use crate::{Error, Result};
 /// Reads a `.pvs` file; each cell's visible set is decoded on demand.
 pub struct PvsReader {
     bytes: Vec<u8>,
-    info: BakeInfo,
-    object_ids: Vec<String>,
-    /// The object fingerprint list (empty when the file has none).
-    object_prints: Vec<ObjectPrint>,
-    /// Input object index of each spatial rank.
-    input_of_rank: Vec<u32>,
-    vertices: Vec<DVec2>,
-    corners: Vec<[u32; 3]>,
-    block_cells: usize,
-    /// Byte position of the block index and of the blocks in `bytes`.
-    index_at: usize,
-    blocks_at: usize,
+    parsed: Parsed,
     grid: CellGrid,
 }
 
-/// Sequential little-endian reader over one section's bytes.
 /// A little-endian reader over the bytes of one section (or of a whole
 /// old-layout file), naming the section in its errors.
 pub(super) struct Cursor<'a> {
@@ -160,45 +148,37 @@ impl PvsReader {
         let vertices = &parsed.vertices;
         let grid = CellGrid::new(corners.len(), |c| corners[c].map(|v| vertices[v as usize]));
         Ok(PvsReader {
-            info: parsed.info,
-            object_ids: parsed.object_ids,
-            object_prints: parsed.object_prints,
-            input_of_rank: parsed.input_of_rank,
-            vertices: parsed.vertices,
-            corners: parsed.corners,
-            block_cells: parsed.block_cells,
-            index_at: parsed.index_at,
-            blocks_at: parsed.blocks_at,
-            grid,
             bytes,
+            parsed,
+            grid,
         })
     }
 
     pub fn info(&self) -> &BakeInfo {
-        &self.info
+        &self.parsed.info
     }
     pub fn cell_count(&self) -> usize {
-        self.corners.len()
+        self.parsed.corners.len()
     }
     pub fn object_ids(&self) -> &[String] {
-        &self.object_ids
+        &self.parsed.object_ids
     }
     /// The object fingerprints, in object order (empty when the file has
     /// no fingerprint list).
     pub fn object_prints(&self) -> &[ObjectPrint] {
-        &self.object_prints
+        &self.parsed.object_prints
     }
     /// Cells per block in this file.
     pub fn block_cells(&self) -> usize {
-        self.block_cells
+        self.parsed.block_cells
     }
     /// Number of distinct corner points of the cells.
     pub fn vertex_count(&self) -> usize {
-        self.vertices.len()
+        self.parsed.vertices.len()
     }
     /// The triangle of a cell in local metres. Panics if `cell >= cell_count()`.
     pub fn cell_triangle(&self, cell: usize) -> [DVec2; 3] {
-        self.corners[cell].map(|v| self.vertices[v as usize])
+        self.parsed.corners[cell].map(|v| self.parsed.vertices[v as usize])
     }
     /// All cell triangles in local metres (built on each call).
     pub fn cell_triangles(&self) -> Vec<[DVec2; 3]> {
@@ -217,16 +197,16 @@ impl PvsReader {
     }
     /// Bytes of the visible-set blocks.
     pub fn block_bytes(&self) -> u64 {
-        (self.bytes.len() - 32 - self.blocks_at) as u64
+        (self.bytes.len() - 32 - self.parsed.blocks_at) as u64
     }
     fn block_offset(&self, b: usize) -> usize {
-        let at = self.index_at + 8 * b;
+        let at = self.parsed.index_at + 8 * b;
         u64::from_le_bytes(self.bytes[at..at + 8].try_into().unwrap()) as usize
     }
     /// The bytes of block `b`.
     fn block(&self, b: usize) -> &[u8] {
         &self.bytes
-            [self.blocks_at + self.block_offset(b)..self.blocks_at + self.block_offset(b + 1)]
+            [self.parsed.blocks_at + self.block_offset(b)..self.parsed.blocks_at + self.block_offset(b + 1)]
     }
     fn check_cell(&self, cell: usize) -> Result<()> {
         if cell >= self.cell_count() {
@@ -241,18 +221,18 @@ impl PvsReader {
     /// through the bitset `marks` (kept all zero between calls).
     fn to_input(&self, ranks: &[u32], marks: &mut Vec<u64>, out: &mut Vec<u32>) {
         out.clear();
-        let words = self.object_ids.len().div_ceil(64);
+        let words = self.parsed.object_ids.len().div_ceil(64);
         if marks.len() != words {
             marks.clear();
             marks.resize(words, 0);
         }
         if ranks.len() < words {
-            out.extend(ranks.iter().map(|&r| self.input_of_rank[r as usize]));
+            out.extend(ranks.iter().map(|&r| self.parsed.input_of_rank[r as usize]));
             out.sort_unstable();
             return;
         }
         for &r in ranks {
-            let i = self.input_of_rank[r as usize];
+            let i = self.parsed.input_of_rank[r as usize];
             marks[i as usize / 64] |= 1 << (i % 64);
         }
         for (k, word) in marks.iter_mut().enumerate() {
@@ -272,8 +252,8 @@ impl PvsReader {
         mut f: impl FnMut(usize, &[u32], u8) -> Result<()>,
     ) -> Result<()> {
         let bytes = self.block(b);
-        let n = self.object_ids.len() as u32;
-        let first = b * self.block_cells;
+        let n = self.parsed.object_ids.len() as u32;
+        let first = b * self.parsed.block_cells;
         let mut state = BlockDecoder::new(bytes, n)
             .map_err(|e| Error::format(format!("visible set of cell {first}: {e}")))?;
         let mut set = Vec::new();
@@ -284,7 +264,7 @@ impl PvsReader {
                 .map_err(|e| Error::format(format!("visible set of cell {cell}: {e}")))?;
             f(cell, &set, refs)?;
         }
-        let whole = first + last + 1 == self.cell_count() || last + 1 == self.block_cells;
+        let whole = first + last + 1 == self.cell_count() || last + 1 == self.parsed.block_cells;
         if whole && state.pos() != bytes.len() {
             return Err(Error::format(format!(
                 "block {b} has {} bytes after its last cell",
@@ -297,9 +277,9 @@ impl PvsReader {
     /// cell's block.
     pub fn visible(&self, cell: usize) -> Result<Vec<u32>> {
         self.check_cell(cell)?;
-        let b = cell / self.block_cells;
+        let b = cell / self.parsed.block_cells;
         let (mut out, mut marks) = (Vec::new(), Vec::new());
-        self.decode_block(b, cell % self.block_cells, |c, ranks, _| {
+        self.decode_block(b, cell % self.parsed.block_cells, |c, ranks, _| {
             if c == cell {
                 self.to_input(ranks, &mut marks, &mut out);
             }
@@ -312,7 +292,7 @@ impl PvsReader {
         Ok(self
             .visible(cell)?
             .into_iter()
-            .map(|i| self.object_ids[i as usize].as_str())
+            .map(|i| self.parsed.object_ids[i as usize].as_str())
             .collect())
     }
     /// The whole file decoded into memory (every cell's set at once: for
@@ -344,9 +324,9 @@ impl PvsReader {
         mut f: impl FnMut(usize, &[u32], u8) -> Result<()>,
     ) -> Result<()> {
         let (mut out, mut marks) = (Vec::new(), Vec::new());
-        let blocks = self.cell_count().div_ceil(self.block_cells);
+        let blocks = self.cell_count().div_ceil(self.parsed.block_cells);
         for b in 0..blocks {
-            let last = (self.cell_count() - b * self.block_cells).min(self.block_cells) - 1;
+            let last = (self.cell_count() - b * self.parsed.block_cells).min(self.parsed.block_cells) - 1;
             self.decode_block(b, last, |c, ranks, mode| {
                 self.to_input(ranks, &mut marks, &mut out);
                 f(c, &out, mode)
@@ -356,14 +336,19 @@ impl PvsReader {
     }
 }
 
+/// Everything the sections hold but the blocks themselves: the header, the
+/// objects, the mesh and where the block index and blocks start.
 struct Parsed {
     info: BakeInfo,
     object_ids: Vec<String>,
+    /// The object fingerprint list (empty when the file has none).
     object_prints: Vec<ObjectPrint>,
+    /// Input object index of each spatial rank.
     input_of_rank: Vec<u32>,
     vertices: Vec<DVec2>,
     corners: Vec<[u32; 3]>,
     block_cells: usize,
+    /// Byte position of the block index and of the blocks in the file.
     index_at: usize,
     blocks_at: usize,
 }

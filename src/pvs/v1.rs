@@ -9,7 +9,7 @@ use sha2::{Digest, Sha256};
 
 use super::codec::decode_record;
 use super::read::Cursor;
-use super::write::{put_u32, put_u64};
+use super::write::{put_header_start, put_u32, put_u64};
 use super::{BakeInfo, MAGIC, PvsData};
 use crate::frame::Frame;
 use crate::BakeNumbers;
@@ -217,27 +217,13 @@ pub fn write_v1(data: &PvsData) -> Vec<u8> {
     }
     let info = &data.info;
     let mut out = Vec::new();
-    out.extend_from_slice(&MAGIC);
-    put_u32(&mut out, 1);
-    put_u32(&mut out, 0);
-    put_u64(&mut out, 0); // file length, patched below
-    for v in [
-        info.numbers.eps,
-        info.numbers.eye_height,
-        info.numbers.pixel,
-        info.numbers.max_cell_edge,
-        info.numbers.margin,
-    ] {
-        out.extend_from_slice(&v.to_le_bytes());
-    }
-    let (kind, crs, x, y) = match &info.frame {
-        Frame::LonLat { lon0, lat0 } => (0, None, *lon0, *lat0),
-        Frame::Metric { origin, crs } => (1, crs.as_deref(), origin.x, origin.y),
-    };
-    put_u32(&mut out, kind);
-    put_u32(&mut out, u32::from(crs.is_some()));
-    out.extend_from_slice(&x.to_le_bytes());
-    out.extend_from_slice(&y.to_le_bytes());
+    let n = &info.numbers;
+    let crs = put_header_start(
+        &mut out,
+        1,
+        &[n.eps, n.eye_height, n.pixel, n.max_cell_edge, n.margin],
+        &info.frame,
+    );
     out.extend_from_slice(&info.source_hash);
     put_u32(&mut out, data.object_ids.len() as u32);
     put_u32(&mut out, data.cells.len() as u32);

@@ -45,6 +45,35 @@ pub(super) fn put_u64(out: &mut Vec<u8>, v: u64) {
 pub(super) fn put_f64(out: &mut Vec<u8>, v: f64) {
     out.extend_from_slice(&v.to_le_bytes());
 }
+/// The header's start, the same in both layouts: magic, `version`, flags
+/// 0, the file length 0 (patched when the file is done), then `numbers`
+/// (eps, eye height, pixel, max cell edge, margin, ... as the layout has
+/// them), frame kind (0 lon/lat, 1 metric), CRS flag and the frame's
+/// origin. Returns the frame's CRS name, which goes into the strings.
+pub(super) fn put_header_start<'f>(
+    out: &mut Vec<u8>,
+    version: u32,
+    numbers: &[f64],
+    frame: &'f Frame,
+) -> Option<&'f str> {
+    out.extend_from_slice(&MAGIC);
+    put_u32(out, version);
+    put_u32(out, 0); // flags
+    put_u64(out, 0); // file length
+    for &v in numbers {
+        put_f64(out, v);
+    }
+    let (kind, crs, x, y) = match frame {
+        Frame::LonLat { lon0, lat0 } => (0, None, *lon0, *lat0),
+        Frame::Metric { origin, crs } => (1, crs.as_deref(), origin.x, origin.y),
+    };
+    put_u32(out, kind);
+    put_u32(out, u32::from(crs.is_some()));
+    put_f64(out, x);
+    put_f64(out, y);
+    crs
+}
+
 fn put_str(out: &mut Vec<u8>, s: &str) {
     write_leb128(out, s.len() as u64);
     out.extend_from_slice(s.as_bytes());
@@ -204,29 +233,21 @@ impl PvsWriter {
         let index_len = 8 * (block_count + 1);
 
         let mut out = Vec::new();
-        out.extend_from_slice(&MAGIC);
-        put_u32(&mut out, FORMAT_VERSION);
-        put_u32(&mut out, 0); // flags
-        put_u64(&mut out, 0); // file_bytes, patched by finish
-        for v in [
-            info.numbers.eps,
-            info.numbers.eye_height,
-            info.numbers.pixel,
-            info.numbers.max_cell_edge,
-            info.numbers.margin,
-            info.numbers.near_field,
-            info.numbers.min_gap,
-        ] {
-            put_f64(&mut out, v);
-        }
-        let (kind, has_crs, x, y) = match &info.frame {
-            Frame::LonLat { lon0, lat0 } => (0, 0, *lon0, *lat0),
-            Frame::Metric { origin, crs } => (1, u32::from(crs.is_some()), origin.x, origin.y),
-        };
-        put_u32(&mut out, kind);
-        put_u32(&mut out, has_crs);
-        put_f64(&mut out, x);
-        put_f64(&mut out, y);
+        let numbers = &info.numbers;
+        put_header_start(
+            &mut out,
+            FORMAT_VERSION,
+            &[
+                numbers.eps,
+                numbers.eye_height,
+                numbers.pixel,
+                numbers.max_cell_edge,
+                numbers.margin,
+                numbers.near_field,
+                numbers.min_gap,
+            ],
+            &info.frame,
+        );
         out.extend_from_slice(&info.source_hash);
         out.extend_from_slice(&info.region_hash);
         put_u32(&mut out, n as u32);
