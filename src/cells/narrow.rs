@@ -89,15 +89,7 @@ pub fn open_piece(free: &MultiPolygon, min_gap: f64) -> MultiPolygon {
 /// free space it was opened from (what added corners must keep clear of).
 fn clean(opened: &MultiPolygon, free: &MultiPolygon, min_gap: f64) -> MultiPolygon {
     let short = SHORT_EDGE * min_gap;
-    let short_starts: Vec<DVec2> = opened
-        .iter()
-        .flat_map(rings_of)
-        .flat_map(|ring| {
-            (0..ring.len())
-                .filter(move |&i| ring[i].distance(ring[(i + 1) % ring.len()]) < 2.0 * short)
-                .map(move |i| ring[i])
-        })
-        .collect();
+    let short_starts = short_edge_starts(opened.iter().flat_map(rings_of), short);
     if short_starts.is_empty() {
         return opened.clone();
     }
@@ -654,17 +646,22 @@ impl Outline {
     }
 }
 
-/// Rid the polygon's outline of edges shorter than `short` (see
-/// [`Outline::fix`]), never changing its topology: a change is refused if
-/// any other part of the outline comes into it. `None` if it vanished.
-fn clean_polygon(polygon: &Polygon, short: f64, walls: &Walls) -> Option<Polygon> {
-    let short_starts: Vec<DVec2> = rings_of(polygon)
+/// The start of every edge of `rings` shorter than `2 short`.
+fn short_edge_starts<'a>(rings: impl Iterator<Item = &'a Ring>, short: f64) -> Vec<DVec2> {
+    rings
         .flat_map(|ring| {
             (0..ring.len())
                 .filter(move |&i| ring[i].distance(ring[(i + 1) % ring.len()]) < 2.0 * short)
                 .map(move |i| ring[i])
         })
-        .collect();
+        .collect()
+}
+
+/// Rid the polygon's outline of edges shorter than `short` (see
+/// [`Outline::fix`]), never changing its topology: a change is refused if
+/// any other part of the outline comes into it. `None` if it vanished.
+fn clean_polygon(polygon: &Polygon, short: f64, walls: &Walls) -> Option<Polygon> {
+    let short_starts = short_edge_starts(rings_of(polygon), short);
     if short_starts.is_empty() {
         return Some(polygon.clone());
     }

@@ -82,6 +82,45 @@ impl BakeInfo {
     }
 }
 
+/// The names of the bake numbers in the order the header stores them
+/// (version 1 stores the first five).
+const HEADER_NUMBERS: [&str; 7] = [
+    "eps",
+    "eye_height",
+    "pixel",
+    "max_cell_edge",
+    "margin",
+    "near_field",
+    "min_gap",
+];
+
+/// `n` in the header's order ([`HEADER_NUMBERS`]).
+fn header_numbers(n: &crate::BakeNumbers) -> [f64; 7] {
+    [
+        n.eps,
+        n.eye_height,
+        n.pixel,
+        n.max_cell_edge,
+        n.margin,
+        n.near_field,
+        n.min_gap,
+    ]
+}
+
+/// The numbers read in the header's order ([`HEADER_NUMBERS`]).
+fn numbers_from_header(v: [f64; 7]) -> crate::BakeNumbers {
+    let [eps, eye_height, pixel, max_cell_edge, margin, near_field, min_gap] = v;
+    crate::BakeNumbers {
+        eps,
+        pixel,
+        eye_height,
+        max_cell_edge,
+        margin,
+        near_field,
+        min_gap,
+    }
+}
+
 /// Everything a `.pvs` file holds, decoded.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PvsData {

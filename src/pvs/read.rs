@@ -14,9 +14,11 @@ use sha2::{Digest, Sha256};
 
 use super::blocks::{BlockDecoder, read_varint};
 use super::grid::CellGrid;
-use super::{BakeInfo, FORMAT_VERSION, HEADER_BYTES, MAGIC, MAX_BLOCK_CELLS, SECTION_NAMES};
+use super::{
+    BakeInfo, FORMAT_VERSION, HEADER_BYTES, HEADER_NUMBERS, MAGIC, MAX_BLOCK_CELLS, SECTION_NAMES,
+    numbers_from_header,
+};
 use crate::frame::Frame;
-use crate::BakeNumbers;
 use crate::{Error, Result};
 
 /// Reads a `.pvs` file; each cell's visible set is decoded on demand.
@@ -358,16 +360,7 @@ fn parse(body: &[u8]) -> Result<Parsed> {
     let mut h = Cursor::new(&body[..HEADER_BYTES], "header");
     h.take(24, "magic, version, flags and length")?;
     let mut params = [0.0; 7];
-    let names = [
-        "eps",
-        "eye_height",
-        "pixel",
-        "max_cell_edge",
-        "margin",
-        "near_field",
-        "min_gap",
-    ];
-    for (v, name) in params.iter_mut().zip(names) {
+    for (v, name) in params.iter_mut().zip(HEADER_NUMBERS) {
         *v = h.f64(name)?;
     }
     let kind = h.u32("frame kind")?;
@@ -436,15 +429,7 @@ fn parse(body: &[u8]) -> Result<Parsed> {
         },
     };
     let info = BakeInfo {
-        numbers: BakeNumbers {
-            eps: params[0],
-            eye_height: params[1],
-            pixel: params[2],
-            max_cell_edge: params[3],
-            margin: params[4],
-            near_field: params[5],
-            min_gap: params[6],
-        },
+        numbers: numbers_from_header(params),
         frame,
         source_hash,
         region_hash,

@@ -10,9 +10,8 @@ use sha2::{Digest, Sha256};
 use super::codec::decode_record;
 use super::read::Cursor;
 use super::write::{put_header_start, put_u32, put_u64};
-use super::{BakeInfo, MAGIC, PvsData};
+use super::{BakeInfo, HEADER_NUMBERS, MAGIC, PvsData, header_numbers, numbers_from_header};
 use crate::frame::Frame;
-use crate::BakeNumbers;
 
 const V1_HEADER_BYTES: usize = 168;
 use crate::{Error, Result};
@@ -86,12 +85,9 @@ pub fn read_v1(bytes: &[u8]) -> Result<PvsData> {
 type Body = (BakeInfo, Vec<String>, Vec<[DVec2; 3]>, Vec<usize>);
 
 fn parse_body(c: &mut Cursor, body: usize) -> Result<Body> {
-    let mut params = [0.0; 5];
-    for (v, name) in
-        params
-            .iter_mut()
-            .zip(["eps", "eye_height", "pixel", "max_cell_edge", "margin"])
-    {
+    // Version 1 has neither a near field nor a minimum gap: they read as 0.
+    let mut params = [0.0; 7];
+    for (v, name) in params.iter_mut().zip(&HEADER_NUMBERS[..5]) {
         *v = c.f64(name)?;
     }
     let kind = c.u32("frame kind")?;
@@ -189,15 +185,7 @@ fn parse_body(c: &mut Cursor, body: usize) -> Result<Body> {
         )));
     }
     let info = BakeInfo {
-        numbers: BakeNumbers {
-            eps: params[0],
-            eye_height: params[1],
-            pixel: params[2],
-            max_cell_edge: params[3],
-            margin: params[4],
-            near_field: 0.0,
-            min_gap: 0.0,
-        },
+        numbers: numbers_from_header(params),
         frame,
         source_hash,
         region_hash: [0; 32],
@@ -217,13 +205,7 @@ pub fn write_v1(data: &PvsData) -> Vec<u8> {
     }
     let info = &data.info;
     let mut out = Vec::new();
-    let n = &info.numbers;
-    let crs = put_header_start(
-        &mut out,
-        1,
-        &[n.eps, n.eye_height, n.pixel, n.max_cell_edge, n.margin],
-        &info.frame,
-    );
+    let crs = put_header_start(&mut out, 1, &header_numbers(&info.numbers)[..5], &info.frame);
     out.extend_from_slice(&info.source_hash);
     put_u32(&mut out, data.object_ids.len() as u32);
     put_u32(&mut out, data.cells.len() as u32);

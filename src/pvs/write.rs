@@ -13,7 +13,9 @@ use sha2::{Digest, Sha256};
 
 use super::blocks::BlockEncoder;
 use super::codec::{bitset_len, write_leb128, zero_rle_len};
-use super::{BLOCK_CELLS, BakeInfo, FORMAT_VERSION, HEADER_BYTES, MAGIC, PvsData, WriteStats};
+use super::{
+    BLOCK_CELLS, BakeInfo, FORMAT_VERSION, HEADER_BYTES, MAGIC, PvsData, WriteStats, header_numbers,
+};
 use crate::frame::Frame;
 use crate::{Error, Result};
 
@@ -233,21 +235,7 @@ impl PvsWriter {
         let index_len = 8 * (block_count + 1);
 
         let mut out = Vec::new();
-        let numbers = &info.numbers;
-        put_header_start(
-            &mut out,
-            FORMAT_VERSION,
-            &[
-                numbers.eps,
-                numbers.eye_height,
-                numbers.pixel,
-                numbers.max_cell_edge,
-                numbers.margin,
-                numbers.near_field,
-                numbers.min_gap,
-            ],
-            &info.frame,
-        );
+        put_header_start(&mut out, FORMAT_VERSION, &header_numbers(&info.numbers), &info.frame);
         out.extend_from_slice(&info.source_hash);
         out.extend_from_slice(&info.region_hash);
         put_u32(&mut out, n as u32);
