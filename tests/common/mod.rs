@@ -168,3 +168,13 @@ pub fn with_header_number(mut bytes: Vec<u8>, offset: usize, value: f64) -> Vec<
     bytes[body..].copy_from_slice(&sum);
     bytes
 }
+
+/// The message of `result`'s error, after checking that the error is of
+/// `kind` (tests match the kind, then what the message names).
+pub fn error_of<T>(result: citypvs::Result<T>, kind: citypvs::ErrorKind) -> String {
+    let Err(err) = result else {
+        panic!("an error of kind {kind:?} was expected");
+    };
+    assert_eq!(err.kind(), &kind, "{err}");
+    err.to_string()
+}

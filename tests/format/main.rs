@@ -3,6 +3,8 @@
 //! One test binary for the group (each file below is a module), so the
 //! suite links a few binaries instead of one per file.
 
+#[path = "../common/mod.rs"]
+mod common;
 mod capi_reader;
 mod pvs_format;
 mod pvs_hostile;

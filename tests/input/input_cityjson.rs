@@ -68,9 +68,7 @@ fn detected_by_content_and_forced_format_is_checked() {
         format: Some(Format::Geojson),
         ..InputOptions::default()
     };
-    let err = read_city_bytes(&bytes, "city.json", &forced)
-        .unwrap_err()
-        .to_string();
+    let err = crate::common::error_of(read_city_bytes(&bytes, "city.json", &forced), citypvs::ErrorKind::Input);
     assert!(
         err.contains("FeatureCollection") && err.contains("CityJSON"),
         "{err}"
@@ -85,9 +83,7 @@ fn bad_vertex_index_names_the_object() {
         "\"vertices\": [[0, 0, 0]], \"unused\": [",
         1,
     );
-    let err = read_city_bytes(bad.as_bytes(), "bad.city.json", &InputOptions::default())
-        .unwrap_err()
-        .to_string();
+    let err = crate::common::error_of(read_city_bytes(bad.as_bytes(), "bad.city.json", &InputOptions::default()), citypvs::ErrorKind::Input);
     assert!(
         err.starts_with("bad.city.json: feature \"hall-a\" (index 1)")
             && err.contains("out of range"),

@@ -325,7 +325,7 @@ fn repairs_are_counted_and_named() {
         strict: true,
         ..InputOptions::default()
     };
-    let err = read_with(&text, &strict).unwrap_err().to_string();
+    let err = crate::common::error_of(read_with(&text, &strict), citypvs::ErrorKind::Input);
     assert!(err.contains("--strict") && err.contains("pt"), "{err}");
 }
 
@@ -353,7 +353,7 @@ fn region_files_in_the_city_frame() {
         format!("{{\"type\":\"FeatureCollection\",\"features\":[{{\"type\":\"Feature\",\"geometry\":{{\"type\":\"Polygon\",\"coordinates\":[{}]}}}},{{\"type\":\"Feature\",\"geometry\":{{\"type\":\"Polygon\",\"coordinates\":[{}]}}}}]}}", square(0.0, 0.0, 1.0), square(5.0, 0.0, 1.0)),
     )
     .unwrap();
-    let err = read_region(&two, &frame).unwrap_err().to_string();
+    let err = crate::common::error_of(read_region(&two, &frame), citypvs::ErrorKind::Input);
     assert!(
         err.contains("two.geojson") && err.contains("one polygon"),
         "{err}"

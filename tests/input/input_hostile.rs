@@ -175,7 +175,10 @@ fn read_cityjson(doc: &Value) -> Result<usize, String> {
         &InputOptions::default(),
     )
     .map(|c| c.buildings.len())
-    .map_err(|e| e.to_string())
+    .map_err(|e| {
+        assert_eq!(e.kind(), &citypvs::ErrorKind::Input, "{e}");
+        e.to_string()
+    })
 }
 
 #[test]

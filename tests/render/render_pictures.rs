@@ -290,9 +290,9 @@ fn same_picture_gives_the_same_bytes() {
 #[test]
 fn bad_requests_are_errors_not_panics() {
     let scene = street();
-    let err = Focus::compute(&scene, 2).unwrap_err().to_string();
+    let err = crate::common::error_of(Focus::compute(&scene, 2), citypvs::ErrorKind::Usage);
     assert!(err.contains("cell 2"), "{err}");
-    let err = Focus::new(&scene, 0, vec![7]).unwrap_err().to_string();
+    let err = crate::common::error_of(Focus::new(&scene, 0, vec![7]), citypvs::ErrorKind::Usage);
     assert!(err.contains("object 7"), "{err}");
     let sizes = [1usize];
     assert!(
