@@ -141,7 +141,11 @@ mod tests {
             DVec2::new(1.0, 1.0),
             DVec2::new(0.0, 1.0),
         ];
-        let tri = [DVec2::new(0.0, 0.0), DVec2::new(0.1, 0.0), DVec2::new(0.0, 1e-9)];
+        let tri = [
+            DVec2::new(0.0, 0.0),
+            DVec2::new(0.1, 0.0),
+            DVec2::new(0.0, 1e-9),
+        ];
         let text = feature_collection(
             &frame,
             None,

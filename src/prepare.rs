@@ -223,11 +223,16 @@ impl PrepareSummary {
 /// The view cells as GeoJSON in the input's frame, each with its index.
 pub fn cells_geojson(scene: &Scene) -> String {
     use crate::export::{Feature, Geometry, feature_collection};
-    let features = scene.cells.triangles.iter().enumerate().map(|(i, t)| Feature {
-        id: None,
-        properties: format!("{{\"cell\":{i}}}"),
-        geometry: Geometry::Polygon(vec![t.as_slice()]),
-    });
+    let features = scene
+        .cells
+        .triangles
+        .iter()
+        .enumerate()
+        .map(|(i, t)| Feature {
+            id: None,
+            properties: format!("{{\"cell\":{i}}}"),
+            geometry: Geometry::Polygon(vec![t.as_slice()]),
+        });
     feature_collection(&scene.city.frame, None, features)
 }
 

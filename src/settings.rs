@@ -72,18 +72,59 @@ pub struct BakeNumbers {
 }
 
 impl BakeNumbers {
-    /// The seven numbers, each with the name of its command-line flag, in
-    /// one fixed order: for anything that lists or compares settings.
-    pub fn named(&self) -> [(&'static str, f64); 7] {
+    /// The names of the numbers (as their command-line flags), in the one
+    /// fixed order of [`BakeNumbers::values`]: also the order in which a
+    /// `.pvs` header stores them.
+    pub const NAMES: [&'static str; 7] = [
+        "eps",
+        "eye-height",
+        "pixel",
+        "max-cell-edge",
+        "margin",
+        "near-field",
+        "min-gap",
+    ];
+
+    /// The numbers in the order of [`BakeNumbers::NAMES`].
+    pub fn values(&self) -> [f64; 7] {
         [
-            ("eps", self.eps),
-            ("pixel", self.pixel),
-            ("eye-height", self.eye_height),
-            ("max-cell-edge", self.max_cell_edge),
-            ("margin", self.margin),
-            ("near-field", self.near_field),
-            ("min-gap", self.min_gap),
+            self.eps,
+            self.eye_height,
+            self.pixel,
+            self.max_cell_edge,
+            self.margin,
+            self.near_field,
+            self.min_gap,
         ]
+    }
+
+    /// The numbers from their values in the order of [`BakeNumbers::NAMES`].
+    pub fn from_values(values: [f64; 7]) -> BakeNumbers {
+        let [
+            eps,
+            eye_height,
+            pixel,
+            max_cell_edge,
+            margin,
+            near_field,
+            min_gap,
+        ] = values;
+        BakeNumbers {
+            eps,
+            pixel,
+            eye_height,
+            max_cell_edge,
+            margin,
+            near_field,
+            min_gap,
+        }
+    }
+
+    /// Each number with its name: for anything that lists or compares
+    /// settings.
+    pub fn named(&self) -> [(&'static str, f64); 7] {
+        let v = self.values();
+        std::array::from_fn(|i| (Self::NAMES[i], v[i]))
     }
 
     /// The numbers that differ bit for bit from `other`'s: name, this

@@ -277,8 +277,13 @@ fn print_text(
     let _ = writeln!(
         text,
         "bake:         eps {} m, eye height {} m, pixel {} m, max cell edge {} m, margin {} m, near field {} m, min gap {} m",
-        h.numbers.eps, h.numbers.eye_height, h.numbers.pixel, h.numbers.max_cell_edge, h.numbers.margin,
-        h.numbers.near_field, h.numbers.min_gap
+        h.numbers.eps,
+        h.numbers.eye_height,
+        h.numbers.pixel,
+        h.numbers.max_cell_edge,
+        h.numbers.margin,
+        h.numbers.near_field,
+        h.numbers.min_gap
     );
     let _ = writeln!(
         text,

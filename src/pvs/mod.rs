@@ -54,7 +54,7 @@ impl BakeInfo {
     /// holds only the region's hash).
     pub fn settings(&self, region: Option<crate::model::Polygon>) -> Result<crate::Settings> {
         crate::Settings::new(crate::RawSettings::given(&self.numbers, region))
-        .map_err(|e| Error::format(format!("the file's header is not a valid bake: {e}")))
+            .map_err(|e| Error::format(format!("the file's header is not a valid bake: {e}")))
     }
 
     /// Check every header number: finite, positive or non-negative as its
@@ -79,45 +79,6 @@ impl BakeInfo {
             )));
         }
         Ok(())
-    }
-}
-
-/// The names of the bake numbers in the order the header stores them
-/// (version 1 stores the first five).
-const HEADER_NUMBERS: [&str; 7] = [
-    "eps",
-    "eye_height",
-    "pixel",
-    "max_cell_edge",
-    "margin",
-    "near_field",
-    "min_gap",
-];
-
-/// `n` in the header's order ([`HEADER_NUMBERS`]).
-fn header_numbers(n: &crate::BakeNumbers) -> [f64; 7] {
-    [
-        n.eps,
-        n.eye_height,
-        n.pixel,
-        n.max_cell_edge,
-        n.margin,
-        n.near_field,
-        n.min_gap,
-    ]
-}
-
-/// The numbers read in the header's order ([`HEADER_NUMBERS`]).
-fn numbers_from_header(v: [f64; 7]) -> crate::BakeNumbers {
-    let [eps, eye_height, pixel, max_cell_edge, margin, near_field, min_gap] = v;
-    crate::BakeNumbers {
-        eps,
-        pixel,
-        eye_height,
-        max_cell_edge,
-        margin,
-        near_field,
-        min_gap,
     }
 }
 

@@ -14,10 +14,8 @@ use sha2::{Digest, Sha256};
 
 use super::blocks::{BlockDecoder, read_varint};
 use super::grid::CellGrid;
-use super::{
-    BakeInfo, FORMAT_VERSION, HEADER_BYTES, HEADER_NUMBERS, MAGIC, MAX_BLOCK_CELLS, SECTION_NAMES,
-    numbers_from_header,
-};
+use super::{BakeInfo, FORMAT_VERSION, HEADER_BYTES, MAGIC, MAX_BLOCK_CELLS, SECTION_NAMES};
+use crate::BakeNumbers;
 use crate::frame::Frame;
 use crate::{Error, Result};
 
@@ -207,8 +205,8 @@ impl PvsReader {
     }
     /// The bytes of block `b`.
     fn block(&self, b: usize) -> &[u8] {
-        &self.bytes
-            [self.parsed.blocks_at + self.block_offset(b)..self.parsed.blocks_at + self.block_offset(b + 1)]
+        &self.bytes[self.parsed.blocks_at + self.block_offset(b)
+            ..self.parsed.blocks_at + self.block_offset(b + 1)]
     }
     fn check_cell(&self, cell: usize) -> Result<()> {
         if cell >= self.cell_count() {
@@ -328,7 +326,8 @@ impl PvsReader {
         let (mut out, mut marks) = (Vec::new(), Vec::new());
         let blocks = self.cell_count().div_ceil(self.parsed.block_cells);
         for b in 0..blocks {
-            let last = (self.cell_count() - b * self.parsed.block_cells).min(self.parsed.block_cells) - 1;
+            let last =
+                (self.cell_count() - b * self.parsed.block_cells).min(self.parsed.block_cells) - 1;
             self.decode_block(b, last, |c, ranks, mode| {
                 self.to_input(ranks, &mut marks, &mut out);
                 f(c, &out, mode)
@@ -360,7 +359,7 @@ fn parse(body: &[u8]) -> Result<Parsed> {
     let mut h = Cursor::new(&body[..HEADER_BYTES], "header");
     h.take(24, "magic, version, flags and length")?;
     let mut params = [0.0; 7];
-    for (v, name) in params.iter_mut().zip(HEADER_NUMBERS) {
+    for (v, name) in params.iter_mut().zip(BakeNumbers::NAMES) {
         *v = h.f64(name)?;
     }
     let kind = h.u32("frame kind")?;
@@ -429,7 +428,7 @@ fn parse(body: &[u8]) -> Result<Parsed> {
         },
     };
     let info = BakeInfo {
-        numbers: numbers_from_header(params),
+        numbers: BakeNumbers::from_values(params),
         frame,
         source_hash,
         region_hash,

@@ -10,7 +10,8 @@ use sha2::{Digest, Sha256};
 use super::codec::decode_record;
 use super::read::Cursor;
 use super::write::{put_header_start, put_u32, put_u64};
-use super::{BakeInfo, HEADER_NUMBERS, MAGIC, PvsData, header_numbers, numbers_from_header};
+use super::{BakeInfo, MAGIC, PvsData};
+use crate::BakeNumbers;
 use crate::frame::Frame;
 
 const V1_HEADER_BYTES: usize = 168;
@@ -87,7 +88,7 @@ type Body = (BakeInfo, Vec<String>, Vec<[DVec2; 3]>, Vec<usize>);
 fn parse_body(c: &mut Cursor, body: usize) -> Result<Body> {
     // Version 1 has neither a near field nor a minimum gap: they read as 0.
     let mut params = [0.0; 7];
-    for (v, name) in params.iter_mut().zip(&HEADER_NUMBERS[..5]) {
+    for (v, name) in params.iter_mut().zip(&BakeNumbers::NAMES[..5]) {
         *v = c.f64(name)?;
     }
     let kind = c.u32("frame kind")?;
@@ -185,7 +186,7 @@ fn parse_body(c: &mut Cursor, body: usize) -> Result<Body> {
         )));
     }
     let info = BakeInfo {
-        numbers: numbers_from_header(params),
+        numbers: BakeNumbers::from_values(params),
         frame,
         source_hash,
         region_hash: [0; 32],
@@ -205,7 +206,7 @@ pub fn write_v1(data: &PvsData) -> Vec<u8> {
     }
     let info = &data.info;
     let mut out = Vec::new();
-    let crs = put_header_start(&mut out, 1, &header_numbers(&info.numbers)[..5], &info.frame);
+    let crs = put_header_start(&mut out, 1, &info.numbers.values()[..5], &info.frame);
     out.extend_from_slice(&info.source_hash);
     put_u32(&mut out, data.object_ids.len() as u32);
     put_u32(&mut out, data.cells.len() as u32);

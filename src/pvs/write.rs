@@ -13,9 +13,7 @@ use sha2::{Digest, Sha256};
 
 use super::blocks::BlockEncoder;
 use super::codec::{bitset_len, write_leb128, zero_rle_len};
-use super::{
-    BLOCK_CELLS, BakeInfo, FORMAT_VERSION, HEADER_BYTES, MAGIC, PvsData, WriteStats, header_numbers,
-};
+use super::{BLOCK_CELLS, BakeInfo, FORMAT_VERSION, HEADER_BYTES, MAGIC, PvsData, WriteStats};
 use crate::frame::Frame;
 use crate::{Error, Result};
 
@@ -235,7 +233,12 @@ impl PvsWriter {
         let index_len = 8 * (block_count + 1);
 
         let mut out = Vec::new();
-        put_header_start(&mut out, FORMAT_VERSION, &header_numbers(&info.numbers), &info.frame);
+        put_header_start(
+            &mut out,
+            FORMAT_VERSION,
+            &info.numbers.values(),
+            &info.frame,
+        );
         out.extend_from_slice(&info.source_hash);
         out.extend_from_slice(&info.region_hash);
         put_u32(&mut out, n as u32);

@@ -75,7 +75,12 @@ impl BakeKey {
         if self.source_hash != other.source_hash {
             out.push("input");
         }
-        out.extend(self.numbers.changed(&other.numbers).into_iter().map(|(name, _, _)| name));
+        out.extend(
+            self.numbers
+                .changed(&other.numbers)
+                .into_iter()
+                .map(|(name, _, _)| name),
+        );
         if self.region_hash != other.region_hash {
             out.push("region");
         }

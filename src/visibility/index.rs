@@ -8,7 +8,8 @@ use glam::DVec2;
 use crate::geometry::Occluder;
 use crate::grid::{CellLists, UniformGrid};
 use crate::model::{
-    Building, Rect, cut_points, distance_to_segment, piece_count, point_in_multipolygon, polygon_edges,
+    Building, Rect, cut_points, distance_to_segment, piece_count, point_in_multipolygon,
+    polygon_edges,
 };
 
 /// One edge of a shrunk occluder level, with the solid on its left.

@@ -3,9 +3,9 @@
 //! One test binary for the group (each file below is a module), so the
 //! suite links a few binaries instead of one per file.
 
+mod capi_reader;
 #[path = "../common/mod.rs"]
 mod common;
-mod capi_reader;
 mod pvs_format;
 mod pvs_hostile;
 mod pvs_inspect;

@@ -68,7 +68,10 @@ fn detected_by_content_and_forced_format_is_checked() {
         format: Some(Format::Geojson),
         ..InputOptions::default()
     };
-    let err = crate::common::error_of(read_city_bytes(&bytes, "city.json", &forced), citypvs::ErrorKind::Input);
+    let err = crate::common::error_of(
+        read_city_bytes(&bytes, "city.json", &forced),
+        citypvs::ErrorKind::Input,
+    );
     assert!(
         err.contains("FeatureCollection") && err.contains("CityJSON"),
         "{err}"
@@ -83,7 +86,10 @@ fn bad_vertex_index_names_the_object() {
         "\"vertices\": [[0, 0, 0]], \"unused\": [",
         1,
     );
-    let err = crate::common::error_of(read_city_bytes(bad.as_bytes(), "bad.city.json", &InputOptions::default()), citypvs::ErrorKind::Input);
+    let err = crate::common::error_of(
+        read_city_bytes(bad.as_bytes(), "bad.city.json", &InputOptions::default()),
+        citypvs::ErrorKind::Input,
+    );
     assert!(
         err.starts_with("bad.city.json: feature \"hall-a\" (index 1)")
             && err.contains("out of range"),

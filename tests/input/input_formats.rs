@@ -41,17 +41,26 @@ fn content_wins_over_a_misleading_extension() {
 #[test]
 fn extension_decides_for_broken_content() {
     let options = InputOptions::default();
-    let err = crate::common::error_of(read_city_bytes(b"\x00\x01garbage", "city.osm.pbf", &options), citypvs::ErrorKind::Input);
+    let err = crate::common::error_of(
+        read_city_bytes(b"\x00\x01garbage", "city.osm.pbf", &options),
+        citypvs::ErrorKind::Input,
+    );
     assert!(
         err.starts_with("city.osm.pbf: ") && err.contains("PBF"),
         "{err}"
     );
-    let err = crate::common::error_of(read_city_bytes(b"type,features\n", "city.geojson", &options), citypvs::ErrorKind::Input);
+    let err = crate::common::error_of(
+        read_city_bytes(b"type,features\n", "city.geojson", &options),
+        citypvs::ErrorKind::Input,
+    );
     assert!(
         err.contains("not valid JSON") && err.contains("line 1"),
         "{err}"
     );
-    let err = crate::common::error_of(read_city_bytes(b"type,features\n", "city.txt", &options), citypvs::ErrorKind::Input);
+    let err = crate::common::error_of(
+        read_city_bytes(b"type,features\n", "city.txt", &options),
+        citypvs::ErrorKind::Input,
+    );
     assert!(err.contains("use --format"), "{err}");
 }
 
@@ -59,10 +68,16 @@ fn extension_decides_for_broken_content() {
 fn forced_format_must_fit_the_content() {
     let geojson = fixture("kotka.geojson");
     for format in [Format::OsmPbf, Format::Cityjson] {
-        let err = crate::common::error_of(read_city_bytes(&geojson, "k.geojson", &forced(format)), citypvs::ErrorKind::Input);
+        let err = crate::common::error_of(
+            read_city_bytes(&geojson, "k.geojson", &forced(format)),
+            citypvs::ErrorKind::Input,
+        );
         assert!(err.starts_with("k.geojson: "), "{err}");
     }
-    let err = crate::common::error_of(read_city_bytes(&fixture("kotka.osm.pbf"), "k.pbf", &forced(Format::Geojson)), citypvs::ErrorKind::Input);
+    let err = crate::common::error_of(
+        read_city_bytes(&fixture("kotka.osm.pbf"), "k.pbf", &forced(Format::Geojson)),
+        citypvs::ErrorKind::Input,
+    );
     assert!(err.contains("not valid JSON"), "{err}");
     let ok = read_city_bytes(&geojson, "k.data", &forced(Format::Geojson)).unwrap();
     assert_eq!(ok.buildings.len(), 2171);

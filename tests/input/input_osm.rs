@@ -100,7 +100,10 @@ fn kotka_pbf_matches_its_geojson() {
 fn truncated_pbf_is_a_clear_error() {
     let bytes = std::fs::read(fixture("kotka.osm.pbf")).unwrap();
     let cut = &bytes[..bytes.len() / 2];
-    let err = crate::common::error_of(read_city_bytes(cut, "cut.osm.pbf", &InputOptions::default()), citypvs::ErrorKind::Input);
+    let err = crate::common::error_of(
+        read_city_bytes(cut, "cut.osm.pbf", &InputOptions::default()),
+        citypvs::ErrorKind::Input,
+    );
     assert!(
         err.starts_with("cut.osm.pbf: ") && err.contains("truncated"),
         "{err}"
@@ -111,7 +114,10 @@ fn truncated_pbf_is_a_clear_error() {
         format: Some(Format::OsmPbf),
         ..InputOptions::default()
     };
-    let err = crate::common::error_of(read_city_bytes(&json, "k.geojson", &forced), citypvs::ErrorKind::Input);
+    let err = crate::common::error_of(
+        read_city_bytes(&json, "k.geojson", &forced),
+        citypvs::ErrorKind::Input,
+    );
     assert!(err.starts_with("k.geojson: "), "{err}");
 }
 
@@ -349,6 +355,9 @@ fn relations_parts_and_broken_features() {
         strict: true,
         ..InputOptions::default()
     };
-    let err = crate::common::error_of(read_city_bytes(&bytes, "tiny.osm.pbf", &strict), citypvs::ErrorKind::Input);
+    let err = crate::common::error_of(
+        read_city_bytes(&bytes, "tiny.osm.pbf", &strict),
+        citypvs::ErrorKind::Input,
+    );
     assert!(err.contains("\"w12\"") && err.contains("--strict"), "{err}");
 }

@@ -161,7 +161,9 @@ fn cells_that_are_not_the_citys_are_refused() {
     assert_eq!(out.status.code(), Some(2), "{}", text(&out));
     assert!(text(&out).contains("cell 3 differs"), "{}", text(&out));
     // Baked with other scene settings than its header says.
-    tampered(dir.path(), "edge.pvs", |d| d.info.numbers.max_cell_edge *= 2.0);
+    tampered(dir.path(), "edge.pvs", |d| {
+        d.info.numbers.max_cell_edge *= 2.0
+    });
     let out = verify(dir.path(), "edge.pvs", &[]);
     assert_eq!(out.status.code(), Some(2), "{}", text(&out));
 }
