@@ -7,7 +7,7 @@ use std::time::Instant;
 
 use clap::Args;
 
-use super::common::{InputArgs, SceneArgs, ViewArgs};
+use super::common::{InputArgs, RunArgs, SceneArgs, ViewArgs};
 use crate::Result;
 use crate::input::{City, read_city, read_city_bytes};
 use crate::prepare::{StageTime, prepare_read};
@@ -33,12 +33,8 @@ pub struct BakeArgs {
     pub scene: SceneArgs,
     #[command(flatten)]
     pub view: ViewArgs,
-    /// Worker threads [default: all cores]. The output is the same for any number.
-    #[arg(long, value_name = "N")]
-    pub threads: Option<usize>,
-    /// No progress bar.
-    #[arg(long, short)]
-    pub quiet: bool,
+    #[command(flatten)]
+    pub run: RunArgs,
     /// Print the summary as one JSON object.
     #[arg(long)]
     pub json: bool,
@@ -157,7 +153,7 @@ fn output_path(args: &BakeArgs, shard: Option<ShardSpec>) -> PathBuf {
 }
 
 pub fn run(args: &BakeArgs) -> Result<i32> {
-    let pool = super::common::thread_pool(args.threads)?;
+    let pool = super::common::thread_pool(args.run.threads)?;
     pool.install(|| run_in_pool(args, pool.current_num_threads()))
 }
 
@@ -197,7 +193,7 @@ fn run_in_pool(args: &BakeArgs, threads: usize) -> Result<i32> {
         None => (ShardSpec { k: 0, n: 1 }, 0..cells),
     };
 
-    let bar = super::common::progress_bar(args.quiet, "cells", range.len() as u64);
+    let bar = super::common::progress_bar(args.run.quiet, "cells", range.len() as u64);
     let tick = |n: u64| {
         if let Some(b) = &bar {
             b.inc(n)

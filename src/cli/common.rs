@@ -11,6 +11,17 @@ use crate::input::{DEFAULT_HEIGHT, Format, InputOptions};
 use crate::settings::{RawSettings, Settings};
 
 /// How to read the city file.
+/// How a long command runs: its threads and its progress bar.
+#[derive(Args, Debug, Clone, Default)]
+pub struct RunArgs {
+    /// Worker threads [default: all cores]. The result is the same for any number.
+    #[arg(long, value_name = "N")]
+    pub threads: Option<usize>,
+    /// No progress bar.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
 #[derive(Args, Debug, Clone)]
 pub struct InputArgs {
     /// GeoJSON coordinates are metres, used as they are, instead of lon/lat

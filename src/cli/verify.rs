@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use clap::Args;
 use serde::Serialize;
 
-use super::common::InputArgs;
+use super::common::{InputArgs, RunArgs};
 use crate::input::read_city;
 use crate::pvs::PvsReader;
 use crate::verify::{
@@ -40,12 +40,8 @@ pub struct VerifyArgs {
     /// Seed for choosing cells and viewpoints.
     #[arg(long, value_name = "S", default_value_t = DEFAULT_SEED)]
     pub seed: u64,
-    /// Worker threads [default: all cores]. The verdict is the same for any number.
-    #[arg(long, value_name = "N")]
-    pub threads: Option<usize>,
-    /// No progress bar.
-    #[arg(long, short)]
-    pub quiet: bool,
+    #[command(flatten)]
+    pub run: RunArgs,
     /// Print everything as one JSON object.
     #[arg(long)]
     pub json: bool,
@@ -90,7 +86,7 @@ pub fn run(args: &VerifyArgs) -> Result<i32> {
     if args.cells == 0 && !args.all {
         return Err(Error::usage("--cells must be at least 1"));
     }
-    let pool = super::common::thread_pool(args.threads)?;
+    let pool = super::common::thread_pool(args.run.threads)?;
     pool.install(|| run_in_pool(args, pool.current_num_threads()))
 }
 
@@ -113,7 +109,7 @@ fn run_in_pool(args: &VerifyArgs, threads: usize) -> Result<i32> {
         .cells
         .map_or(reader.cell_count(), |k| k.min(reader.cell_count()));
     let bar =
-        super::common::progress_bar(args.quiet, "viewpoints", (checked * args.samples) as u64);
+        super::common::progress_bar(args.run.quiet, "viewpoints", (checked * args.samples) as u64);
     let tick = |n: u64| {
         if let Some(b) = &bar {
             b.inc(n)
