@@ -148,7 +148,10 @@ fn passages_get_few_thick_cells() {
             })
             .fold(f64::INFINITY, f64::min);
         assert!(!inside.is_empty());
-        assert!(thinnest > 0.3 * w, "passage {w} m: a cell {thinnest} m thin");
+        assert!(
+            thinnest > 0.3 * w,
+            "passage {w} m: a cell {thinnest} m thin"
+        );
         assert!(
             (inside.len() as f64) <= 2.0 * 17.0 / w + 2.0,
             "passage {w} m: {} cells",
