@@ -162,6 +162,14 @@ fn key(d: f64) -> u64 {
     d.max(0.0).to_bits()
 }
 
+/// What the sweep last found for a node of the bucket hierarchy: at which
+/// horizon state it was tested, and whether the horizon hid it then.
+#[derive(Clone, Copy, Default)]
+struct NodeMark {
+    epoch: u64,
+    hidden: bool,
+}
+
 /// Reusable per-thread state for solving samples.
 pub struct Solver<'a> {
     index: &'a SceneIndex,
@@ -184,6 +192,13 @@ pub struct Solver<'a> {
     /// chain sweep's, which runs at the same time).
     raster_stamp: Vec<u32>,
     raster_stamp_value: u32,
+    /// Per level of the bucket hierarchy, per node, the sweep's last test.
+    node_marks: [Vec<NodeMark>; 2],
+    /// Counts the states of the horizon: one more whenever it is cleared or
+    /// chains enter it.
+    epoch: u64,
+    /// The epoch at which the current sample's horizon was cleared.
+    sample_epoch: u64,
 }
 
 impl<'a> Solver<'a> {
@@ -204,6 +219,9 @@ impl<'a> Solver<'a> {
             remaining: Vec::new(),
             raster_stamp: vec![0; index.edges.len()],
             raster_stamp_value: 0,
+            node_marks: [0, 1].map(|l| vec![NodeMark::default(); index.bucket_nodes(l).len()]),
+            epoch: 1,
+            sample_epoch: 1,
         }
     }
 
@@ -297,6 +315,8 @@ impl<'a> Solver<'a> {
         self.window.place_around(v, self.near_field);
         let mut drawn = false;
         self.horizon.clear();
+        self.epoch += 1;
+        self.sample_epoch = self.epoch;
         self.chains.clear();
         self.swept_rings = -1;
         self.next_stamp();
@@ -390,8 +410,34 @@ impl<'a> Solver<'a> {
             self.swept_rings += 1;
             let ring = self.swept_rings;
             let eye = self.eye;
-            let (chains, horizon) = (&mut self.chains, &self.horizon);
-            index.buckets_in_ring(v, ring, |bucket| {
+            let (epoch, sample_epoch) = (self.epoch, self.sample_epoch);
+            let (chains, horizon, marks) = (&mut self.chains, &self.horizon, &mut self.node_marks);
+            index.buckets_in_ring_keyed(v, ring, |x, y, bucket| {
+                // First the bucket's nodes in the hierarchy, largest first:
+                // a node whose rectangle and height the horizon hides holds
+                // no chain that could raise it, now or later in this sample
+                // (docs/DESIGN.md, "The bucket hierarchy").
+                for level in [1, 0] {
+                    let nodes = index.bucket_nodes(level);
+                    let n = nodes.node_of(x, y);
+                    let mark = &mut marks[level][n];
+                    let hidden = if mark.epoch == epoch
+                        || (mark.hidden && mark.epoch >= sample_epoch)
+                    {
+                        mark.hidden
+                    } else {
+                        let height = nodes.height(n);
+                        let rect = nodes.rect(n);
+                        let hidden = height <= eye
+                            || rect.is_empty()
+                            || horizon.hides_rect(v, eye, rect, height);
+                        *mark = NodeMark { epoch, hidden };
+                        hidden
+                    };
+                    if hidden {
+                        return;
+                    }
+                }
                 let height = index.bucket_height(bucket);
                 if height <= eye {
                     return;
@@ -411,7 +457,10 @@ impl<'a> Solver<'a> {
         let mut ready = std::mem::take(&mut self.ready);
         ready.clear();
         self.chains.take_nearer(r, &mut ready);
-        add_ready_chains(&mut self.horizon, index, v, self.eye, &ready);
+        if !ready.is_empty() {
+            add_ready_chains(&mut self.horizon, index, v, self.eye, &ready);
+            self.epoch += 1;
+        }
         self.ready = ready;
     }
 
