@@ -30,6 +30,8 @@ pub const BINS: usize = 2048;
 const TURN: f64 = 4.0;
 const BIN_WIDTH: f64 = TURN / BINS as f64;
 const _: () = assert!(BINS.is_power_of_two() && (BINS / GROUP).is_power_of_two());
+// The groups touched by one chain fit in a 64-bit mask.
+const _: () = assert!(BINS / GROUP <= 64);
 /// Bins per group in the coarse level that lets hidden chains be skipped.
 const GROUP: usize = 32;
 
@@ -250,19 +252,32 @@ impl Horizon {
         }
         let first_full = ceil_i64(lo / BIN_WIDTH);
         let last_full = bin_of(hi) - 1;
+        // Groups whose smallest slope may have risen: those where a bin at
+        // the group's minimum was raised (the slopes only grow, so no other
+        // change can move a group's minimum).
+        let mut dirty: u64 = 0;
         for bin in first_full..=last_full {
             let nearness = self.bin_nearness[(bin - base) as usize];
             if nearness.is_finite() {
-                let s = &mut self.slopes[wrap(bin)];
-                *s = s.max(rise * nearness);
+                let w = wrap(bin);
+                let raised = rise * nearness;
+                let s = &mut self.slopes[w];
+                if raised > *s {
+                    if *s <= self.group_min[w / GROUP] {
+                        dirty |= 1 << (w / GROUP);
+                    }
+                    *s = raised;
+                }
             }
         }
-        if first_full <= last_full {
-            for g in first_full.div_euclid(GROUP as i64)..=last_full.div_euclid(GROUP as i64) {
-                let g = (g & ((BINS / GROUP) as i64 - 1)) as usize;
-                let bins = &self.slopes[g * GROUP..(g + 1) * GROUP];
-                self.group_min[g] = bins.iter().copied().fold(f64::INFINITY, f64::min);
-            }
+        while dirty != 0 {
+            let g = dirty.trailing_zeros() as usize;
+            dirty &= dirty - 1;
+            let bins = &self.slopes[g * GROUP..(g + 1) * GROUP];
+            // No slope is NaN, so a plain comparison is the minimum.
+            self.group_min[g] = bins
+                .iter()
+                .fold(f64::INFINITY, |m, &x| if x < m { x } else { m });
         }
     }
 
