@@ -327,7 +327,29 @@ impl Horizon {
             lo = lo.min(a);
             hi = hi.max(a);
         }
-        (bin_of(lo)..=bin_of(hi)).all(|b| self.slopes[wrap(b)] >= need)
+        self.all_at_least(bin_of(lo), bin_of(hi), need)
+    }
+
+    /// Whether every bin of `lo..=hi` (unwrapped) has a slope of at least
+    /// `need`: whole groups are passed on their minimum, the same answer as
+    /// bin by bin.
+    fn all_at_least(&self, lo: i64, hi: i64, need: f64) -> bool {
+        let mut b = lo;
+        while b <= hi {
+            let w = wrap(b);
+            if w % GROUP == 0 && hi - b >= GROUP as i64 - 1 {
+                if self.group_min[w / GROUP] >= need {
+                    b += GROUP as i64;
+                    continue;
+                }
+                // Some bin of the group is below: find it bin by bin.
+            }
+            if !(self.slopes[w] >= need) {
+                return false;
+            }
+            b += 1;
+        }
+        true
     }
 }
 
