@@ -128,6 +128,7 @@ impl SceneIndex {
         let grid = PixelGrid { pixel };
         let edges = collect_edges(occluders);
         let buckets = bucket_grid(&edges);
+        let edges = in_bucket_order(edges, &buckets);
         let edge_range = |i: usize| {
             let e = &edges[i];
             buckets.key_range(&Rect::of_points([&e.a, &e.b]))
@@ -431,6 +432,30 @@ fn collect_edges(occluders: &[Occluder]) -> Vec<OccluderEdge> {
         }
     }
     edges
+}
+
+/// The edges renumbered by the bucket holding their first point (a stable
+/// sort: within a bucket they keep their order, and the pieces of a ring
+/// mostly follow each other), `next` following the renumbering. The sweep
+/// then reads each bucket's edges and their chains from one stretch of
+/// memory. Nothing else depends on the numbering: the chains and their
+/// order within a bucket are the same, and the near-field map draws the
+/// edges in an order fixed by their coordinates.
+fn in_bucket_order(edges: Vec<OccluderEdge>, buckets: &UniformGrid) -> Vec<OccluderEdge> {
+    let mut order: Vec<u32> = (0..edges.len() as u32).collect();
+    order.sort_by_key(|&e| buckets.index(buckets.key(edges[e as usize].a)));
+    let mut new_id = vec![0u32; edges.len()];
+    for (n, &e) in order.iter().enumerate() {
+        new_id[e as usize] = n as u32;
+    }
+    order
+        .iter()
+        .map(|&e| {
+            let mut edge = edges[e as usize];
+            edge.next = new_id[edge.next as usize];
+            edge
+        })
+        .collect()
 }
 
 /// Every pixel whose centre lies inside the footprint or within half a
