@@ -194,17 +194,18 @@ impl Horizon {
         }
         let base = bin_of(lo);
         let top = bin_of(hi);
-        // The steepest slope this chain could give; if every bin it spans is
-        // already at least that steep, it adds nothing.
+        // Only the bins wholly inside the chain's arc are raised.
+        let first_full = ceil_i64(lo / BIN_WIDTH);
+        let last_full = top - 1;
+        // The steepest slope this chain could give; if every bin it would
+        // raise is already at least that steep, it adds nothing.
         let nearest = self
             .chain_points
             .windows(2)
             .map(|w| crate::model::distance_to_segment(v, w[0], w[1]))
             .fold(f64::INFINITY, f64::min);
         let rise = height - eye;
-        let groups = (base.div_euclid(GROUP as i64)..=top.div_euclid(GROUP as i64))
-            .map(|g| self.group_min[(g & ((BINS / GROUP) as i64 - 1)) as usize]);
-        if groups.fold(f64::INFINITY, f64::min) >= rise / nearest {
+        if first_full > last_full || self.all_at_least(first_full, last_full, rise / nearest) {
             return;
         }
         self.bin_nearness.clear();
@@ -250,8 +251,6 @@ impl Horizon {
                 lower = upper;
             }
         }
-        let first_full = ceil_i64(lo / BIN_WIDTH);
-        let last_full = bin_of(hi) - 1;
         // Groups whose smallest slope may have risen: those where a bin at
         // the group's minimum was raised (the slopes only grow, so no other
         // change can move a group's minimum).

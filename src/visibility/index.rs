@@ -262,6 +262,16 @@ impl SceneIndex {
         &self.bucket_nodes[level]
     }
 
+    /// How many buckets there are.
+    pub fn bucket_count(&self) -> usize {
+        self.buckets.len()
+    }
+
+    /// The column and row of bucket `b`.
+    pub fn bucket_key(&self, b: usize) -> (usize, usize) {
+        (b % self.buckets.nx(), b / self.buckets.nx())
+    }
+
     /// The square bucket `b` covers.
     pub fn bucket_rect(&self, b: usize) -> Rect {
         self.buckets.cell_rect(b)

@@ -88,13 +88,17 @@ fn chain_reach(index: &SceneIndex, v: DVec2, e: u32, pieces: u32) -> f64 {
 /// Width in metres of the distance slots of the chain queue.
 const CHAIN_SLOT: f64 = 4.0;
 
+/// A chain waiting to enter the horizon: its reach (greatest distance from
+/// the sample), first piece, piece count and the bucket it starts in.
+type QueuedChain = (f64, u32, u32, u32);
+
 /// Chains waiting to enter the horizon, in distance slots: a chain only has
 /// to be in the horizon before an item farther than its farthest point is
 /// tested, and the order in which chains enter does not change the horizon
 /// (a per-bin max), so a coarse order is enough.
 #[derive(Default)]
 struct ChainQueue {
-    slots: Vec<Vec<(f64, u32, u32)>>,
+    slots: Vec<Vec<QueuedChain>>,
     /// Every slot below this one is empty.
     first: usize,
     len: usize,
@@ -110,7 +114,7 @@ impl ChainQueue {
         self.len = 0;
     }
 
-    fn push(&mut self, d: f64, e: u32, pieces: u32) {
+    fn push(&mut self, d: f64, e: u32, pieces: u32, bucket: u32) {
         // A chain is never found after items beyond it were tested (the
         // bucket sweep runs ahead); should one be, it simply enters late,
         // which can only leave more visible.
@@ -118,12 +122,12 @@ impl ChainQueue {
         if slot >= self.slots.len() {
             self.slots.resize_with(slot + 1, Vec::new);
         }
-        self.slots[slot].push((d, e, pieces));
+        self.slots[slot].push((d, e, pieces, bucket));
         self.len += 1;
     }
 
     /// Move every chain nearer than `r` into `out`.
-    fn take_nearer(&mut self, r: f64, out: &mut Vec<(f64, u32, u32)>) {
+    fn take_nearer(&mut self, r: f64, out: &mut Vec<QueuedChain>) {
         if self.len == 0 {
             return;
         }
@@ -182,7 +186,7 @@ pub struct Solver<'a> {
     gathered: Vec<(f64, u32)>,
     queue: BinaryHeap<Reverse<(u64, Item)>>,
     chains: ChainQueue,
-    ready: Vec<(f64, u32, u32)>,
+    ready: Vec<QueuedChain>,
     /// Edge buckets already swept into `chains`, as a Chebyshev ring radius.
     swept_rings: i64,
     /// Per pyramid node, the greatest height of its objects not yet in the
@@ -194,6 +198,9 @@ pub struct Solver<'a> {
     raster_stamp_value: u32,
     /// Per level of the bucket hierarchy, per node, the sweep's last test.
     node_marks: [Vec<NodeMark>; 2],
+    /// Per bucket, the last test of its chain rectangle when its chains
+    /// were taken from the queue.
+    bucket_marks: Vec<NodeMark>,
     /// Counts the states of the horizon: one more whenever it is cleared or
     /// chains enter it.
     epoch: u64,
@@ -220,6 +227,7 @@ impl<'a> Solver<'a> {
             raster_stamp: vec![0; index.edges.len()],
             raster_stamp_value: 0,
             node_marks: [0, 1].map(|l| vec![NodeMark::default(); index.bucket_nodes(l).len()]),
+            bucket_marks: vec![NodeMark::default(); index.bucket_count()],
             epoch: 1,
             sample_epoch: 1,
         }
@@ -458,6 +466,21 @@ impl<'a> Solver<'a> {
         ready.clear();
         self.chains.take_nearer(r, &mut ready);
         if !ready.is_empty() {
+            // The horizon may have grown since a chain's bucket was swept:
+            // a bucket (or node) that it hides now holds no chain that could
+            // raise it (docs/DESIGN.md, "The bucket hierarchy").
+            let (eye, epoch, sample_epoch) = (self.eye, self.epoch, self.sample_epoch);
+            ready.retain(|&(_, _, _, bucket)| {
+                !chain_bucket_hidden(
+                    index,
+                    &self.horizon,
+                    &mut self.node_marks,
+                    &mut self.bucket_marks,
+                    (v, eye),
+                    (epoch, sample_epoch),
+                    bucket as usize,
+                )
+            });
             add_ready_chains(&mut self.horizon, index, v, self.eye, &ready);
             self.epoch += 1;
         }
@@ -640,8 +663,44 @@ fn queue_bucket_chains(
             continue;
         }
         let pieces = stride + 1;
-        chains.push(chain_reach(index, v, e, pieces), e, pieces);
+        chains.push(chain_reach(index, v, e, pieces), e, pieces, bucket as u32);
     }
+}
+
+/// Whether the horizon now hides bucket `bucket`'s node of either level or
+/// its chain rectangle over all strides at its height, remembered per
+/// horizon state in `node_marks` and `bucket_marks` (a hidden mark stays
+/// valid for the rest of the sample: the horizon only grows).
+fn chain_bucket_hidden(
+    index: &SceneIndex,
+    horizon: &Horizon,
+    node_marks: &mut [Vec<NodeMark>; 2],
+    bucket_marks: &mut [NodeMark],
+    (v, eye): (DVec2, f64),
+    (epoch, sample_epoch): (u64, u64),
+    bucket: usize,
+) -> bool {
+    let test = |mark: &mut NodeMark, rect: &Rect, height: f64| {
+        if mark.epoch == epoch || (mark.hidden && mark.epoch >= sample_epoch) {
+            return mark.hidden;
+        }
+        let hidden = height <= eye || rect.is_empty() || horizon.hides_rect(v, eye, rect, height);
+        *mark = NodeMark { epoch, hidden };
+        hidden
+    };
+    let (x, y) = index.bucket_key(bucket);
+    for level in [1, 0] {
+        let nodes = index.bucket_nodes(level);
+        let n = nodes.node_of(x, y);
+        if test(&mut node_marks[level][n], nodes.rect(n), nodes.height(n)) {
+            return true;
+        }
+    }
+    test(
+        &mut bucket_marks[bucket],
+        index.bucket_chain_rect(bucket, None),
+        index.bucket_height(bucket),
+    )
 }
 
 /// Add the chains taken from the queue (first piece, piece count) to the
@@ -651,9 +710,9 @@ fn add_ready_chains(
     index: &SceneIndex,
     v: DVec2,
     eye: f64,
-    ready: &[(f64, u32, u32)],
+    ready: &[QueuedChain],
 ) {
-    for &(_, e, pieces) in ready {
+    for &(_, e, pieces, _) in ready {
         let edge = &index.edges[e as usize];
         let mut cur = e;
         let mut count = 0;
