@@ -109,6 +109,19 @@ fn unwrapped_angle(v: DVec2, p: DVec2, reference: f64) -> f64 {
     a
 }
 
+/// The smaller of two numbers that are not NaN (a plain comparison: the
+/// same value as `f64::min`, without its NaN handling).
+#[inline]
+fn min_of(a: f64, b: f64) -> f64 {
+    if b < a { b } else { a }
+}
+
+/// The larger of two numbers that are not NaN.
+#[inline]
+fn max_of(a: f64, b: f64) -> f64 {
+    if b > a { b } else { a }
+}
+
 /// The bin (unwrapped, any integer) holding pseudo-angle `a`.
 fn bin_of(a: f64) -> i64 {
     floor_i64(a / BIN_WIDTH)
@@ -179,12 +192,12 @@ impl Horizon {
             .chain_angles
             .iter()
             .copied()
-            .fold(f64::INFINITY, f64::min);
+            .fold(f64::INFINITY, min_of);
         let hi = self
             .chain_angles
             .iter()
             .copied()
-            .fold(f64::NEG_INFINITY, f64::max);
+            .fold(f64::NEG_INFINITY, max_of);
         if hi - lo >= TURN {
             // The chain winds all the way round the eye: its arc is not an
             // interval of directions; skip it. (Each piece spans less than
@@ -203,7 +216,7 @@ impl Horizon {
             .chain_points
             .windows(2)
             .map(|w| crate::model::distance_to_segment(v, w[0], w[1]))
-            .fold(f64::INFINITY, f64::min);
+            .fold(f64::INFINITY, min_of);
         let rise = height - eye;
         if first_full > last_full || self.all_at_least(first_full, last_full, rise / nearest) {
             return;
@@ -230,15 +243,29 @@ impl Horizon {
             let nearness_at = |border: i64| -> f64 {
                 let q = dirs[wrap(border)].dot(normal) / offset;
                 if q.is_finite() && q > 0.0 {
-                    q.max(far_nearness)
+                    max_of(q, far_nearness)
                 } else {
                     far_nearness
                 }
             };
-            let first = bin_of(ta);
-            let last = bin_of(tb);
-            // The borders outside [ta, tb] are replaced by the edge's ends.
-            let mut lower = 1.0 / da;
+            // The borders outside [ta, tb] are replaced by the edge's ends:
+            // the lower border of bin `bin` of this edge.
+            let lower_of = |bin: i64| -> f64 {
+                if bin <= bin_of(ta) {
+                    1.0 / da
+                } else if bin as f64 * BIN_WIDTH >= tb {
+                    1.0 / db
+                } else {
+                    nearness_at(bin)
+                }
+            };
+            // Only the bins wholly inside the chain's arc are read below.
+            let first = bin_of(ta).max(first_full);
+            let last = bin_of(tb).min(last_full);
+            if first > last {
+                continue;
+            }
+            let mut lower = lower_of(first);
             for bin in first..=last {
                 let upper_border = bin + 1;
                 let upper = if upper_border as f64 * BIN_WIDTH >= tb {
@@ -247,7 +274,7 @@ impl Horizon {
                     nearness_at(upper_border)
                 };
                 let slot = &mut self.bin_nearness[(bin - base) as usize];
-                *slot = slot.min(lower).min(upper);
+                *slot = min_of(min_of(*slot, lower), upper);
                 lower = upper;
             }
         }

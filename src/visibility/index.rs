@@ -452,8 +452,11 @@ fn collect_edges(occluders: &[Occluder]) -> Vec<OccluderEdge> {
 /// order within a bucket are the same, and the near-field map draws the
 /// edges in an order fixed by their coordinates.
 fn in_bucket_order(edges: Vec<OccluderEdge>, buckets: &UniformGrid) -> Vec<OccluderEdge> {
-    let mut order: Vec<u32> = (0..edges.len() as u32).collect();
-    order.sort_by_key(|&e| buckets.index(buckets.key(edges[e as usize].a)));
+    let mut keyed: Vec<(u32, u32)> = (0..edges.len())
+        .map(|e| (buckets.index(buckets.key(edges[e].a)) as u32, e as u32))
+        .collect();
+    keyed.sort_unstable();
+    let order: Vec<u32> = keyed.into_iter().map(|(_, e)| e).collect();
     let mut new_id = vec![0u32; edges.len()];
     for (n, &e) in order.iter().enumerate() {
         new_id[e as usize] = n as u32;
