@@ -262,6 +262,21 @@ impl SceneIndex {
         &self.bucket_nodes[level]
     }
 
+    /// The bucket grid's columns and rows.
+    pub fn bucket_dims(&self) -> (usize, usize) {
+        (self.buckets.nx(), self.buckets.ny())
+    }
+
+    /// The (unclamped) column and row of the bucket holding `p`.
+    pub fn bucket_cell_of(&self, p: DVec2) -> (i64, i64) {
+        self.buckets.cell_of(p)
+    }
+
+    /// The index of the bucket in column `x`, row `y`.
+    pub fn bucket_index(&self, x: usize, y: usize) -> usize {
+        self.buckets.index((x, y))
+    }
+
     /// How many buckets there are.
     pub fn bucket_count(&self) -> usize {
         self.buckets.len()

@@ -18,7 +18,7 @@ use glam::DVec2;
 use super::bitset::ObjectSet;
 use super::cullmap::CullWindow;
 use super::horizon::{Horizon, bins_overlap, floor_i64, rect_bins};
-use super::index::{MAX_EDGE_PIECE, NO_PARENT, SceneIndex};
+use super::index::{MAX_EDGE_PIECE, NO_PARENT, NODE_SHIFTS, SceneIndex};
 use crate::model::{Rect, distance_to_segment};
 
 /// Default half-size in metres of the near-field cull map.
@@ -416,51 +416,18 @@ impl<'a> Solver<'a> {
         let vc = stride_cell(v);
         while self.swept_rings < rings_needed && self.swept_rings < index.max_bucket_ring(v) {
             self.swept_rings += 1;
-            let ring = self.swept_rings;
-            let eye = self.eye;
-            let (epoch, sample_epoch) = (self.epoch, self.sample_epoch);
-            let (chains, horizon, marks) = (&mut self.chains, &self.horizon, &mut self.node_marks);
-            index.buckets_in_ring_keyed(v, ring, |x, y, bucket| {
-                // First the bucket's nodes in the hierarchy, largest first:
-                // a node whose rectangle and height the horizon hides holds
-                // no chain that could raise it, now or later in this sample
-                // (docs/DESIGN.md, "The bucket hierarchy").
-                for level in [1, 0] {
-                    let nodes = index.bucket_nodes(level);
-                    let n = nodes.node_of(x, y);
-                    let mark = &mut marks[level][n];
-                    let hidden = if mark.epoch == epoch
-                        || (mark.hidden && mark.epoch >= sample_epoch)
-                    {
-                        mark.hidden
-                    } else {
-                        let height = nodes.height(n);
-                        let rect = nodes.rect(n);
-                        let hidden = height <= eye
-                            || rect.is_empty()
-                            || horizon.hides_rect(v, eye, rect, height);
-                        *mark = NodeMark { epoch, hidden };
-                        hidden
-                    };
-                    if hidden {
-                        return;
-                    }
-                }
-                let height = index.bucket_height(bucket);
-                if height <= eye {
-                    return;
-                }
-                // Every chain that starts in this bucket lies in its chain
-                // rectangle and is no higher than the bucket's highest edge:
-                // if that is all below the horizon already, no chain of the
-                // bucket can raise it (the horizon only grows).
-                let reach =
-                    index.bucket_chain_rect(bucket, bucket_stride(vc, &index.bucket_rect(bucket)));
-                if reach.is_empty() || horizon.hides_rect(v, eye, reach, height) {
-                    return;
-                }
-                queue_bucket_chains(index, v, vc, eye, bucket, chains);
-            });
+            let mut sweep = Sweep {
+                index,
+                v,
+                vc,
+                eye: self.eye,
+                epoch: self.epoch,
+                sample_epoch: self.sample_epoch,
+                horizon: &self.horizon,
+                marks: &mut self.node_marks,
+                chains: &mut self.chains,
+            };
+            sweep.ring(self.swept_rings);
         }
         let mut ready = std::mem::take(&mut self.ready);
         ready.clear();
@@ -664,6 +631,151 @@ fn queue_bucket_chains(
         }
         let pieces = stride + 1;
         chains.push(chain_reach(index, v, e, pieces), e, pieces, bucket as u32);
+    }
+}
+
+/// One ring of the bucket sweep around a sample, against the horizon as it
+/// stands: every bucket of the ring in the order of
+/// [`SceneIndex::buckets_in_ring`], except those under a node of the
+/// bucket hierarchy that the horizon hides (skipped a node's stretch of the
+/// ring at a time).
+struct Sweep<'s, 'a> {
+    index: &'a SceneIndex,
+    v: DVec2,
+    vc: (i64, i64),
+    eye: f64,
+    epoch: u64,
+    sample_epoch: u64,
+    horizon: &'s Horizon,
+    marks: &'s mut [Vec<NodeMark>; 2],
+    chains: &'s mut ChainQueue,
+}
+
+impl Sweep<'_, '_> {
+    /// Whether the horizon hides the node of `level` holding bucket
+    /// `(x, y)`: tested at most once per horizon state, and a node once
+    /// hidden stays hidden for the rest of the sample (the horizon only
+    /// grows).
+    fn node_hidden(&mut self, level: usize, x: usize, y: usize) -> bool {
+        let nodes = self.index.bucket_nodes(level);
+        let n = nodes.node_of(x, y);
+        let mark = &mut self.marks[level][n];
+        if mark.epoch == self.epoch || (mark.hidden && mark.epoch >= self.sample_epoch) {
+            return mark.hidden;
+        }
+        let height = nodes.height(n);
+        let rect = nodes.rect(n);
+        let hidden = height <= self.eye
+            || rect.is_empty()
+            || self.horizon.hides_rect(self.v, self.eye, rect, height);
+        *mark = NodeMark {
+            epoch: self.epoch,
+            hidden,
+        };
+        hidden
+    }
+
+    /// Test bucket `(x, y)` and queue its chains unless it (or a node
+    /// holding it) is below the horizon.
+    fn bucket(&mut self, x: usize, y: usize) {
+        // First the bucket's nodes in the hierarchy, largest first: a node
+        // whose rectangle and height the horizon hides holds no chain that
+        // could raise it, now or later in this sample (docs/DESIGN.md, "The
+        // bucket hierarchy").
+        if self.node_hidden(1, x, y) || self.node_hidden(0, x, y) {
+            return;
+        }
+        let (index, v, eye) = (self.index, self.v, self.eye);
+        let bucket = index.bucket_index(x, y);
+        let height = index.bucket_height(bucket);
+        if height <= eye {
+            return;
+        }
+        // Every chain that starts in this bucket lies in its chain
+        // rectangle and is no higher than the bucket's highest edge: if
+        // that is all below the horizon already, no chain of the bucket can
+        // raise it (the horizon only grows).
+        let reach =
+            index.bucket_chain_rect(bucket, bucket_stride(self.vc, &index.bucket_rect(bucket)));
+        if reach.is_empty() || self.horizon.hides_rect(v, eye, reach, height) {
+            return;
+        }
+        queue_bucket_chains(index, v, self.vc, eye, bucket, self.chains);
+    }
+
+    /// Where the stretch of buckets from `i` onwards that shares nodes of
+    /// `level` with `i` ends (at most `end`), when every node of `level`
+    /// holding `(i, along)` for the given lines is hidden (or the line is
+    /// outside the grid); `None` otherwise. `at(i, line)` is the bucket.
+    fn hidden_stretch(
+        &mut self,
+        level: usize,
+        i: usize,
+        end: usize,
+        lines: [Option<usize>; 2],
+        at: impl Fn(usize, usize) -> (usize, usize),
+    ) -> Option<usize> {
+        for line in lines.into_iter().flatten() {
+            let (x, y) = at(i, line);
+            if !self.node_hidden(level, x, y) {
+                return None;
+            }
+        }
+        let side = 1usize << NODE_SHIFTS[level];
+        Some((i | (side - 1)).min(end))
+    }
+
+    /// Walk buckets `lo..=hi` along a pair of lines (two rows, or two
+    /// columns), visiting `at(i, line)` for each line in turn at every `i`,
+    /// and jumping over stretches whose nodes are hidden on both lines.
+    fn walk(
+        &mut self,
+        lo: usize,
+        hi: usize,
+        lines: [Option<usize>; 2],
+        at: impl Fn(usize, usize) -> (usize, usize) + Copy,
+    ) {
+        let mut i = lo;
+        'walk: while i <= hi {
+            for level in [1, 0] {
+                if let Some(last) = self.hidden_stretch(level, i, hi, lines, at) {
+                    i = last + 1;
+                    continue 'walk;
+                }
+            }
+            for line in lines.into_iter().flatten() {
+                let (x, y) = at(i, line);
+                self.bucket(x, y);
+            }
+            i += 1;
+        }
+    }
+
+    /// Every bucket at Chebyshev distance exactly `ring` from the sample's
+    /// bucket, in the order of [`UniformGrid::for_each_in_ring`]: the
+    /// bottom and top rows left to right, then the left and right columns
+    /// upwards.
+    fn ring(&mut self, ring: i64) {
+        let (nx, ny) = self.index.bucket_dims();
+        let (nx, ny) = (nx as i64, ny as i64);
+        let (cx, cy) = self.index.bucket_cell_of(self.v);
+        let inside = |c: i64, n: i64| (c >= 0 && c < n).then_some(c as usize);
+        if ring == 0 {
+            if let (Some(x), Some(y)) = (inside(cx, nx), inside(cy, ny)) {
+                self.bucket(x, y);
+            }
+            return;
+        }
+        let rows = [inside(cy - ring, ny), inside(cy + ring, ny)];
+        let (x0, x1) = ((cx - ring).max(0), (cx + ring).min(nx - 1));
+        if rows.iter().any(Option::is_some) && x0 <= x1 {
+            self.walk(x0 as usize, x1 as usize, rows, |i, line| (i, line));
+        }
+        let columns = [inside(cx - ring, nx), inside(cx + ring, nx)];
+        let (y0, y1) = ((cy - ring + 1).max(0), (cy + ring - 1).min(ny - 1));
+        if columns.iter().any(Option::is_some) && y0 <= y1 {
+            self.walk(y0 as usize, y1 as usize, columns, |i, line| (line, i));
+        }
     }
 }
 
