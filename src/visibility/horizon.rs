@@ -122,6 +122,22 @@ fn max_of(a: f64, b: f64) -> f64 {
     if b > a { b } else { a }
 }
 
+/// The square of [`crate::model::distance_to_segment`], computed the same
+/// way up to its square root: the least of these, square-rooted, is bit for
+/// bit the least of the distances (a correctly rounded square root is
+/// monotone).
+#[inline]
+fn squared_distance_to_segment(p: DVec2, a: DVec2, b: DVec2) -> f64 {
+    let ab = b - a;
+    let len2 = ab.length_squared();
+    let t = if len2 > 0.0 {
+        ((p - a).dot(ab) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    ((a + ab * t) - p).length_squared()
+}
+
 /// The bin (unwrapped, any integer) holding pseudo-angle `a`.
 fn bin_of(a: f64) -> i64 {
     floor_i64(a / BIN_WIDTH)
@@ -215,8 +231,9 @@ impl Horizon {
         let nearest = self
             .chain_points
             .windows(2)
-            .map(|w| crate::model::distance_to_segment(v, w[0], w[1]))
-            .fold(f64::INFINITY, min_of);
+            .map(|w| squared_distance_to_segment(v, w[0], w[1]))
+            .fold(f64::INFINITY, min_of)
+            .sqrt();
         let rise = height - eye;
         if first_full > last_full || self.all_at_least(first_full, last_full, rise / nearest) {
             return;

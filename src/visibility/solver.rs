@@ -73,16 +73,23 @@ fn bucket_stride(vc: (i64, i64), rect: &Rect) -> Option<u32> {
 
 /// The greatest distance from `v` to the points of the chain of `pieces`
 /// pieces starting at edge `e`.
+///
+/// The square root is taken once, of the greatest squared distance: a
+/// correctly rounded square root is monotone, so this is bit for bit the
+/// greatest of the distances.
 fn chain_reach(index: &SceneIndex, v: DVec2, e: u32, pieces: u32) -> f64 {
     let edge = &index.edges[e as usize];
-    let mut d_max = edge.a.distance(v);
+    let mut d2_max = (edge.a - v).length_squared();
     let mut cur = e;
     for _ in 0..pieces {
         let c = &index.edges[cur as usize];
-        d_max = d_max.max(c.b.distance(v));
+        let d2 = (c.b - v).length_squared();
+        if d2 > d2_max {
+            d2_max = d2;
+        }
         cur = c.next;
     }
-    d_max
+    d2_max.sqrt()
 }
 
 /// Width in metres of the distance slots of the chain queue.
