@@ -50,6 +50,10 @@ pub struct Horizon {
     border_dirs: Vec<DVec2>,
     /// Per group of GROUP bins, the smallest slope of its bins.
     group_min: Vec<f64>,
+    /// Whether a chain that cannot raise any bin is skipped before its
+    /// per-bin distances are computed (always, except in tests that
+    /// compare against adding every chain in full).
+    pub skip_hidden: bool,
 }
 
 impl Default for Horizon {
@@ -64,6 +68,7 @@ impl Default for Horizon {
                 .map(|b| direction_of(b as f64 * BIN_WIDTH))
                 .collect(),
             group_min: vec![f64::NEG_INFINITY; BINS / GROUP],
+            skip_hidden: true,
         }
     }
 }
@@ -235,7 +240,9 @@ impl Horizon {
             .fold(f64::INFINITY, min_of)
             .sqrt();
         let rise = height - eye;
-        if first_full > last_full || self.all_at_least(first_full, last_full, rise / nearest) {
+        if first_full > last_full
+            || (self.skip_hidden && self.all_at_least(first_full, last_full, rise / nearest))
+        {
             return;
         }
         self.bin_nearness.clear();

@@ -213,6 +213,9 @@ pub struct Solver<'a> {
     epoch: u64,
     /// The epoch at which the current sample's horizon was cleared.
     sample_epoch: u64,
+    /// Whether buckets, nodes and chains below the horizon are skipped
+    /// (always, except in tests: see [`Solver::set_skip_hidden`]).
+    skip_hidden: bool,
 }
 
 impl<'a> Solver<'a> {
@@ -237,7 +240,18 @@ impl<'a> Solver<'a> {
             bucket_marks: vec![NodeMark::default(); index.bucket_count()],
             epoch: 1,
             sample_epoch: 1,
+            skip_hidden: true,
         }
+    }
+
+    /// With `false`, every chain nearer than an item enters the horizon
+    /// in full before the item is tested: no bucket, node of the bucket
+    /// hierarchy or chain is skipped for lying below the horizon. Slower;
+    /// the visible sets must be the same (those skips only leave out
+    /// chains that cannot raise the horizon), which is what tests check.
+    pub fn set_skip_hidden(&mut self, skip: bool) {
+        self.skip_hidden = skip;
+        self.horizon.skip_hidden = skip;
     }
 
     fn next_stamp(&mut self) -> u32 {
@@ -433,6 +447,7 @@ impl<'a> Solver<'a> {
                 horizon: &self.horizon,
                 marks: &mut self.node_marks,
                 chains: &mut self.chains,
+                skip_hidden: self.skip_hidden,
             };
             sweep.ring(self.swept_rings);
         }
@@ -440,21 +455,24 @@ impl<'a> Solver<'a> {
         ready.clear();
         self.chains.take_nearer(r, &mut ready);
         if !ready.is_empty() {
-            // The horizon may have grown since a chain's bucket was swept:
-            // a bucket (or node) that it hides now holds no chain that could
-            // raise it (docs/DESIGN.md, "The bucket hierarchy").
-            let (eye, epoch, sample_epoch) = (self.eye, self.epoch, self.sample_epoch);
-            ready.retain(|&(_, _, _, bucket)| {
-                !chain_bucket_hidden(
-                    index,
-                    &self.horizon,
-                    &mut self.node_marks,
-                    &mut self.bucket_marks,
-                    (v, eye),
-                    (epoch, sample_epoch),
-                    bucket as usize,
-                )
-            });
+            if self.skip_hidden {
+                // The horizon may have grown since a chain's bucket was
+                // swept: a bucket (or node) that it hides now holds no chain
+                // that could raise it (docs/DESIGN.md, "The bucket
+                // hierarchy").
+                let (eye, epoch, sample_epoch) = (self.eye, self.epoch, self.sample_epoch);
+                ready.retain(|&(_, _, _, bucket)| {
+                    !chain_bucket_hidden(
+                        index,
+                        &self.horizon,
+                        &mut self.node_marks,
+                        &mut self.bucket_marks,
+                        (v, eye),
+                        (epoch, sample_epoch),
+                        bucket as usize,
+                    )
+                });
+            }
             add_ready_chains(&mut self.horizon, index, v, self.eye, &ready);
             self.epoch += 1;
         }
@@ -656,6 +674,7 @@ struct Sweep<'s, 'a> {
     horizon: &'s Horizon,
     marks: &'s mut [Vec<NodeMark>; 2],
     chains: &'s mut ChainQueue,
+    skip_hidden: bool,
 }
 
 impl Sweep<'_, '_> {
@@ -664,6 +683,9 @@ impl Sweep<'_, '_> {
     /// hidden stays hidden for the rest of the sample (the horizon only
     /// grows).
     fn node_hidden(&mut self, level: usize, x: usize, y: usize) -> bool {
+        if !self.skip_hidden {
+            return false;
+        }
         let nodes = self.index.bucket_nodes(level);
         let n = nodes.node_of(x, y);
         let mark = &mut self.marks[level][n];
@@ -704,7 +726,7 @@ impl Sweep<'_, '_> {
         // raise it (the horizon only grows).
         let reach =
             index.bucket_chain_rect(bucket, bucket_stride(self.vc, &index.bucket_rect(bucket)));
-        if reach.is_empty() || self.horizon.hides_rect(v, eye, reach, height) {
+        if reach.is_empty() || (self.skip_hidden && self.horizon.hides_rect(v, eye, reach, height)) {
             return;
         }
         queue_bucket_chains(index, v, self.vc, eye, bucket, self.chains);

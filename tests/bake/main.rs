@@ -8,6 +8,7 @@ mod bake_cli;
 mod common;
 mod flags_refused;
 mod output_files;
+mod skip_hidden;
 mod settings_cli;
 mod tiny_buildings;
 mod tiny_opening;
