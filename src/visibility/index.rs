@@ -91,7 +91,7 @@ pub struct SceneIndex {
     bucket_chain_rects: Vec<[Rect; 4]>,
     /// The bucket hierarchy: squares of 4 x 4 and of 16 x 16 buckets (see
     /// [`BucketNodes`]), tested by the sweep before their buckets.
-    bucket_nodes: [BucketNodes; 2],
+    bucket_nodes: [BucketNodes; NODE_LEVELS],
     pub objects: Vec<ObjectRaster>,
     pub pyramid: Vec<PyramidNode>,
     /// Index of the root node of the pyramid (none when there are no objects).
@@ -256,7 +256,8 @@ impl SceneIndex {
         self.buckets.for_each_in_ring_keyed(v, ring, f);
     }
 
-    /// Level `level` (0: squares of 4 x 4 buckets, 1: of 16 x 16) of the
+    /// Level `level` (0: squares of 4 x 4 buckets, 1: of 16 x 16; see
+    /// [`NODE_SHIFTS`]) of the
     /// bucket hierarchy.
     pub fn bucket_nodes(&self, level: usize) -> &BucketNodes {
         &self.bucket_nodes[level]
@@ -308,7 +309,10 @@ impl SceneIndex {
 
 /// Side, as a power of two in buckets, of the nodes of each level of the
 /// bucket hierarchy: 4 x 4 and 16 x 16 buckets.
-pub const NODE_SHIFTS: [u32; 2] = [2, 4];
+pub const NODE_SHIFTS: [u32; NODE_LEVELS] = [2, 4];
+
+/// How many levels the bucket hierarchy has.
+pub const NODE_LEVELS: usize = 2;
 
 /// How far each node's rectangle is grown beyond the union of its buckets'
 /// chain rectangles, in metres: a margin far above the rounding of the

@@ -18,7 +18,7 @@ use glam::DVec2;
 use super::bitset::ObjectSet;
 use super::cullmap::CullWindow;
 use super::horizon::{Horizon, bins_overlap, floor_i64, rect_bins};
-use super::index::{MAX_EDGE_PIECE, NO_PARENT, NODE_SHIFTS, SceneIndex};
+use super::index::{MAX_EDGE_PIECE, NO_PARENT, NODE_LEVELS, NODE_SHIFTS, SceneIndex};
 use crate::model::{Rect, distance_to_segment};
 
 /// Default half-size in metres of the near-field cull map.
@@ -204,7 +204,7 @@ pub struct Solver<'a> {
     raster_stamp: Vec<u32>,
     raster_stamp_value: u32,
     /// Per level of the bucket hierarchy, per node, the sweep's last test.
-    node_marks: [Vec<NodeMark>; 2],
+    node_marks: [Vec<NodeMark>; NODE_LEVELS],
     /// Per bucket, the last test of its chain rectangle when its chains
     /// were taken from the queue.
     bucket_marks: Vec<NodeMark>,
@@ -236,7 +236,7 @@ impl<'a> Solver<'a> {
             remaining: Vec::new(),
             raster_stamp: vec![0; index.edges.len()],
             raster_stamp_value: 0,
-            node_marks: [0, 1].map(|l| vec![NodeMark::default(); index.bucket_nodes(l).len()]),
+            node_marks: std::array::from_fn(|l| vec![NodeMark::default(); index.bucket_nodes(l).len()]),
             bucket_marks: vec![NodeMark::default(); index.bucket_count()],
             epoch: 1,
             sample_epoch: 1,
@@ -672,7 +672,7 @@ struct Sweep<'s, 'a> {
     epoch: u64,
     sample_epoch: u64,
     horizon: &'s Horizon,
-    marks: &'s mut [Vec<NodeMark>; 2],
+    marks: &'s mut [Vec<NodeMark>; NODE_LEVELS],
     chains: &'s mut ChainQueue,
     skip_hidden: bool,
 }
@@ -711,7 +711,7 @@ impl Sweep<'_, '_> {
         // whose rectangle and height the horizon hides holds no chain that
         // could raise it, now or later in this sample (docs/DESIGN.md, "The
         // bucket hierarchy").
-        if self.node_hidden(1, x, y) || self.node_hidden(0, x, y) {
+        if (0..NODE_LEVELS).rev().any(|level| self.node_hidden(level, x, y)) {
             return;
         }
         let (index, v, eye) = (self.index, self.v, self.eye);
@@ -766,7 +766,7 @@ impl Sweep<'_, '_> {
     ) {
         let mut i = lo;
         'walk: while i <= hi {
-            for level in [1, 0] {
+            for level in (0..NODE_LEVELS).rev() {
                 if let Some(last) = self.hidden_stretch(level, i, hi, lines, at) {
                     i = last + 1;
                     continue 'walk;
@@ -815,7 +815,7 @@ impl Sweep<'_, '_> {
 fn chain_bucket_hidden(
     index: &SceneIndex,
     horizon: &Horizon,
-    node_marks: &mut [Vec<NodeMark>; 2],
+    node_marks: &mut [Vec<NodeMark>; NODE_LEVELS],
     bucket_marks: &mut [NodeMark],
     (v, eye): (DVec2, f64),
     (epoch, sample_epoch): (u64, u64),
@@ -830,7 +830,7 @@ fn chain_bucket_hidden(
         hidden
     };
     let (x, y) = index.bucket_key(bucket);
-    for level in [1, 0] {
+    for level in (0..NODE_LEVELS).rev() {
         let nodes = index.bucket_nodes(level);
         let n = nodes.node_of(x, y);
         if test(&mut node_marks[level][n], nodes.rect(n), nodes.height(n)) {
