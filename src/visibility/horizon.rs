@@ -383,16 +383,20 @@ impl Horizon {
     /// Whether every bin of `lo..=hi` (unwrapped) has a slope of at least
     /// `need`: whole groups are passed on their minimum, the same answer as
     /// bin by bin.
+    // `!(a >= b)` on purpose: a NaN fails the test, as in `all(|s| s >= need)`.
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
     fn all_at_least(&self, lo: i64, hi: i64, need: f64) -> bool {
         let mut b = lo;
         while b <= hi {
             let w = wrap(b);
-            if w % GROUP == 0 && hi - b >= GROUP as i64 - 1 {
-                if self.group_min[w / GROUP] >= need {
-                    b += GROUP as i64;
-                    continue;
-                }
-                // Some bin of the group is below: find it bin by bin.
+            if w.is_multiple_of(GROUP)
+                && hi - b >= GROUP as i64 - 1
+                && self.group_min[w / GROUP] >= need
+            {
+                // The whole group is at least `need` (a group below it is
+                // searched bin by bin).
+                b += GROUP as i64;
+                continue;
             }
             if !(self.slopes[w] >= need) {
                 return false;

@@ -345,7 +345,7 @@ impl BucketNodes {
         let mut rects = vec![Rect::EMPTY; nx * ny];
         let mut node_heights = vec![0.0f64; nx * ny];
         for b in 0..buckets.len() {
-            let n = (b / buckets.nx() >> shift) * nx + (b % buckets.nx() >> shift);
+            let n = ((b / buckets.nx()) >> shift) * nx + ((b % buckets.nx()) >> shift);
             rects[n] = rects[n].union(&chain_rects[b][3]);
             node_heights[n] = node_heights[n].max(heights[b]);
         }

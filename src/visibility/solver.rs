@@ -236,7 +236,9 @@ impl<'a> Solver<'a> {
             remaining: Vec::new(),
             raster_stamp: vec![0; index.edges.len()],
             raster_stamp_value: 0,
-            node_marks: std::array::from_fn(|l| vec![NodeMark::default(); index.bucket_nodes(l).len()]),
+            node_marks: std::array::from_fn(|l| {
+                vec![NodeMark::default(); index.bucket_nodes(l).len()]
+            }),
             bucket_marks: vec![NodeMark::default(); index.bucket_count()],
             epoch: 1,
             sample_epoch: 1,
@@ -711,7 +713,10 @@ impl Sweep<'_, '_> {
         // whose rectangle and height the horizon hides holds no chain that
         // could raise it, now or later in this sample (docs/DESIGN.md, "The
         // bucket hierarchy").
-        if (0..NODE_LEVELS).rev().any(|level| self.node_hidden(level, x, y)) {
+        if (0..NODE_LEVELS)
+            .rev()
+            .any(|level| self.node_hidden(level, x, y))
+        {
             return;
         }
         let (index, v, eye) = (self.index, self.v, self.eye);
@@ -726,7 +731,8 @@ impl Sweep<'_, '_> {
         // raise it (the horizon only grows).
         let reach =
             index.bucket_chain_rect(bucket, bucket_stride(self.vc, &index.bucket_rect(bucket)));
-        if reach.is_empty() || (self.skip_hidden && self.horizon.hides_rect(v, eye, reach, height)) {
+        if reach.is_empty() || (self.skip_hidden && self.horizon.hides_rect(v, eye, reach, height))
+        {
             return;
         }
         queue_bucket_chains(index, v, self.vc, eye, bucket, self.chains);

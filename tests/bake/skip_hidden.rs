@@ -72,7 +72,10 @@ fn a_city_with_districts_far_apart_sees_the_same_with_and_without_skips() {
     // whole nodes are skipped from most samples.
     let (seen, all) = compare(&scene(400, 3), 60);
     assert!(seen > 0, "something is visible");
-    assert!(seen * 4 < all, "most of the city is hidden: {seen} of {all}");
+    assert!(
+        seen * 4 < all,
+        "most of the city is hidden: {seen} of {all}"
+    );
 }
 
 proptest! {
