@@ -143,11 +143,22 @@ impl UniformGrid {
     /// exactly `ring` from the (unclamped) cell of `p`: the bottom and top
     /// rows left to right, then the left and right columns upwards.
     pub fn for_each_in_ring(&self, p: DVec2, ring: i64, mut f: impl FnMut(usize)) {
+        self.for_each_in_ring_keyed(p, ring, |_, _, k| f(k));
+    }
+
+    /// [`UniformGrid::for_each_in_ring`], calling `f` with each cell's
+    /// column, row and index.
+    pub fn for_each_in_ring_keyed(
+        &self,
+        p: DVec2,
+        ring: i64,
+        mut f: impl FnMut(usize, usize, usize),
+    ) {
         let (nx, ny) = (self.nx as i64, self.ny as i64);
         let (cx, cy) = self.cell_of(p);
         let mut visit = |x: i64, y: i64| {
             if x >= 0 && y >= 0 && x < nx && y < ny {
-                f((y * nx + x) as usize);
+                f(x as usize, y as usize, (y * nx + x) as usize);
             }
         };
         if ring == 0 {

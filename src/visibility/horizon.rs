@@ -30,6 +30,8 @@ pub const BINS: usize = 2048;
 const TURN: f64 = 4.0;
 const BIN_WIDTH: f64 = TURN / BINS as f64;
 const _: () = assert!(BINS.is_power_of_two() && (BINS / GROUP).is_power_of_two());
+// The groups touched by one chain fit in a 64-bit mask.
+const _: () = assert!(BINS / GROUP <= 64);
 /// Bins per group in the coarse level that lets hidden chains be skipped.
 const GROUP: usize = 32;
 
@@ -48,6 +50,10 @@ pub struct Horizon {
     border_dirs: Vec<DVec2>,
     /// Per group of GROUP bins, the smallest slope of its bins.
     group_min: Vec<f64>,
+    /// Whether a chain that cannot raise any bin is skipped before its
+    /// per-bin distances are computed (always, except in tests that
+    /// compare against adding every chain in full).
+    pub skip_hidden: bool,
 }
 
 impl Default for Horizon {
@@ -62,6 +68,7 @@ impl Default for Horizon {
                 .map(|b| direction_of(b as f64 * BIN_WIDTH))
                 .collect(),
             group_min: vec![f64::NEG_INFINITY; BINS / GROUP],
+            skip_hidden: true,
         }
     }
 }
@@ -105,6 +112,35 @@ fn unwrapped_angle(v: DVec2, p: DVec2, reference: f64) -> f64 {
         a += TURN;
     }
     a
+}
+
+/// The smaller of two numbers that are not NaN (a plain comparison: the
+/// same value as `f64::min`, without its NaN handling).
+#[inline]
+fn min_of(a: f64, b: f64) -> f64 {
+    if b < a { b } else { a }
+}
+
+/// The larger of two numbers that are not NaN.
+#[inline]
+fn max_of(a: f64, b: f64) -> f64 {
+    if b > a { b } else { a }
+}
+
+/// The square of [`crate::model::distance_to_segment`], computed the same
+/// way up to its square root: the least of these, square-rooted, is bit for
+/// bit the least of the distances (a correctly rounded square root is
+/// monotone).
+#[inline]
+fn squared_distance_to_segment(p: DVec2, a: DVec2, b: DVec2) -> f64 {
+    let ab = b - a;
+    let len2 = ab.length_squared();
+    let t = if len2 > 0.0 {
+        ((p - a).dot(ab) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    ((a + ab * t) - p).length_squared()
 }
 
 /// The bin (unwrapped, any integer) holding pseudo-angle `a`.
@@ -177,12 +213,12 @@ impl Horizon {
             .chain_angles
             .iter()
             .copied()
-            .fold(f64::INFINITY, f64::min);
+            .fold(f64::INFINITY, min_of);
         let hi = self
             .chain_angles
             .iter()
             .copied()
-            .fold(f64::NEG_INFINITY, f64::max);
+            .fold(f64::NEG_INFINITY, max_of);
         if hi - lo >= TURN {
             // The chain winds all the way round the eye: its arc is not an
             // interval of directions; skip it. (Each piece spans less than
@@ -192,17 +228,21 @@ impl Horizon {
         }
         let base = bin_of(lo);
         let top = bin_of(hi);
-        // The steepest slope this chain could give; if every bin it spans is
-        // already at least that steep, it adds nothing.
+        // Only the bins wholly inside the chain's arc are raised.
+        let first_full = ceil_i64(lo / BIN_WIDTH);
+        let last_full = top - 1;
+        // The steepest slope this chain could give; if every bin it would
+        // raise is already at least that steep, it adds nothing.
         let nearest = self
             .chain_points
             .windows(2)
-            .map(|w| crate::model::distance_to_segment(v, w[0], w[1]))
-            .fold(f64::INFINITY, f64::min);
+            .map(|w| squared_distance_to_segment(v, w[0], w[1]))
+            .fold(f64::INFINITY, min_of)
+            .sqrt();
         let rise = height - eye;
-        let groups = (base.div_euclid(GROUP as i64)..=top.div_euclid(GROUP as i64))
-            .map(|g| self.group_min[(g & ((BINS / GROUP) as i64 - 1)) as usize]);
-        if groups.fold(f64::INFINITY, f64::min) >= rise / nearest {
+        if first_full > last_full
+            || (self.skip_hidden && self.all_at_least(first_full, last_full, rise / nearest))
+        {
             return;
         }
         self.bin_nearness.clear();
@@ -227,15 +267,29 @@ impl Horizon {
             let nearness_at = |border: i64| -> f64 {
                 let q = dirs[wrap(border)].dot(normal) / offset;
                 if q.is_finite() && q > 0.0 {
-                    q.max(far_nearness)
+                    max_of(q, far_nearness)
                 } else {
                     far_nearness
                 }
             };
-            let first = bin_of(ta);
-            let last = bin_of(tb);
-            // The borders outside [ta, tb] are replaced by the edge's ends.
-            let mut lower = 1.0 / da;
+            // The borders outside [ta, tb] are replaced by the edge's ends:
+            // the lower border of bin `bin` of this edge.
+            let lower_of = |bin: i64| -> f64 {
+                if bin <= bin_of(ta) {
+                    1.0 / da
+                } else if bin as f64 * BIN_WIDTH >= tb {
+                    1.0 / db
+                } else {
+                    nearness_at(bin)
+                }
+            };
+            // Only the bins wholly inside the chain's arc are read below.
+            let first = bin_of(ta).max(first_full);
+            let last = bin_of(tb).min(last_full);
+            if first > last {
+                continue;
+            }
+            let mut lower = lower_of(first);
             for bin in first..=last {
                 let upper_border = bin + 1;
                 let upper = if upper_border as f64 * BIN_WIDTH >= tb {
@@ -244,25 +298,36 @@ impl Horizon {
                     nearness_at(upper_border)
                 };
                 let slot = &mut self.bin_nearness[(bin - base) as usize];
-                *slot = slot.min(lower).min(upper);
+                *slot = min_of(min_of(*slot, lower), upper);
                 lower = upper;
             }
         }
-        let first_full = ceil_i64(lo / BIN_WIDTH);
-        let last_full = bin_of(hi) - 1;
+        // Groups whose smallest slope may have risen: those where a bin at
+        // the group's minimum was raised (the slopes only grow, so no other
+        // change can move a group's minimum).
+        let mut dirty: u64 = 0;
         for bin in first_full..=last_full {
             let nearness = self.bin_nearness[(bin - base) as usize];
             if nearness.is_finite() {
-                let s = &mut self.slopes[wrap(bin)];
-                *s = s.max(rise * nearness);
+                let w = wrap(bin);
+                let raised = rise * nearness;
+                let s = &mut self.slopes[w];
+                if raised > *s {
+                    if *s <= self.group_min[w / GROUP] {
+                        dirty |= 1 << (w / GROUP);
+                    }
+                    *s = raised;
+                }
             }
         }
-        if first_full <= last_full {
-            for g in first_full.div_euclid(GROUP as i64)..=last_full.div_euclid(GROUP as i64) {
-                let g = (g & ((BINS / GROUP) as i64 - 1)) as usize;
-                let bins = &self.slopes[g * GROUP..(g + 1) * GROUP];
-                self.group_min[g] = bins.iter().copied().fold(f64::INFINITY, f64::min);
-            }
+        while dirty != 0 {
+            let g = dirty.trailing_zeros() as usize;
+            dirty &= dirty - 1;
+            let bins = &self.slopes[g * GROUP..(g + 1) * GROUP];
+            // No slope is NaN, so a plain comparison is the minimum.
+            self.group_min[g] = bins
+                .iter()
+                .fold(f64::INFINITY, |m, &x| if x < m { x } else { m });
         }
     }
 
@@ -312,7 +377,33 @@ impl Horizon {
             lo = lo.min(a);
             hi = hi.max(a);
         }
-        (bin_of(lo)..=bin_of(hi)).all(|b| self.slopes[wrap(b)] >= need)
+        self.all_at_least(bin_of(lo), bin_of(hi), need)
+    }
+
+    /// Whether every bin of `lo..=hi` (unwrapped) has a slope of at least
+    /// `need`: whole groups are passed on their minimum, the same answer as
+    /// bin by bin.
+    // `!(a >= b)` on purpose: a NaN fails the test, as in `all(|s| s >= need)`.
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
+    fn all_at_least(&self, lo: i64, hi: i64, need: f64) -> bool {
+        let mut b = lo;
+        while b <= hi {
+            let w = wrap(b);
+            if w.is_multiple_of(GROUP)
+                && hi - b >= GROUP as i64 - 1
+                && self.group_min[w / GROUP] >= need
+            {
+                // The whole group is at least `need` (a group below it is
+                // searched bin by bin).
+                b += GROUP as i64;
+                continue;
+            }
+            if !(self.slopes[w] >= need) {
+                return false;
+            }
+            b += 1;
+        }
+        true
     }
 }
 

@@ -92,6 +92,9 @@ pub struct SceneIndex {
     /// every chain the solver may start from the edges starting in the
     /// bucket; entry 3 is the union of the three.
     bucket_chain_rects: Vec<[Rect; 4]>,
+    /// The bucket hierarchy: squares of 4 x 4 and of 16 x 16 buckets (see
+    /// [`BucketNodes`]), tested by the sweep before their buckets.
+    bucket_nodes: [BucketNodes; NODE_LEVELS],
     pub objects: Vec<ObjectRaster>,
     pub pyramid: Vec<PyramidNode>,
     /// Index of the root node of the pyramid (none when there are no objects).
@@ -128,6 +131,7 @@ impl SceneIndex {
         let grid = PixelGrid { pixel };
         let edges = collect_edges(occluders);
         let buckets = bucket_grid(&edges);
+        let edges = in_bucket_order(edges, &buckets);
         let edge_range = |i: usize| {
             let e = &edges[i];
             buckets.key_range(&Rect::of_points([&e.a, &e.b]))
@@ -138,7 +142,7 @@ impl SceneIndex {
             (k, k)
         };
         let bucket_starts = CellLists::build(&buckets, edges.len(), start_range);
-        let bucket_heights = bucket_starts
+        let bucket_heights: Vec<f64> = bucket_starts
             .iter()
             .map(|b| {
                 b.iter()
@@ -146,7 +150,7 @@ impl SceneIndex {
                     .fold(0.0, f64::max)
             })
             .collect();
-        let bucket_chain_rects = bucket_starts
+        let bucket_chain_rects: Vec<[Rect; 4]> = bucket_starts
             .iter()
             .map(|b| {
                 let mut rects = [Rect::EMPTY; 4];
@@ -172,6 +176,8 @@ impl SceneIndex {
                 rects
             })
             .collect();
+        let bucket_nodes = NODE_SHIFTS
+            .map(|shift| BucketNodes::build(&buckets, shift, &bucket_heights, &bucket_chain_rects));
         let objects: Vec<ObjectRaster> = buildings
             .iter()
             .map(|b| rasterise_object(b, grid))
@@ -195,6 +201,7 @@ impl SceneIndex {
             bucket_starts,
             bucket_heights,
             bucket_chain_rects,
+            bucket_nodes,
             objects,
             pyramid,
             root,
@@ -245,6 +252,45 @@ impl SceneIndex {
         &self.bucket_chain_rects[b][level]
     }
 
+    /// Call `f` with the column, row and index of every bucket at
+    /// Chebyshev distance exactly `ring` from the bucket containing `v`, in
+    /// the order of [`SceneIndex::buckets_in_ring`].
+    pub fn buckets_in_ring_keyed(&self, v: DVec2, ring: i64, f: impl FnMut(usize, usize, usize)) {
+        self.buckets.for_each_in_ring_keyed(v, ring, f);
+    }
+
+    /// Level `level` (0: squares of 4 x 4 buckets, 1: of 16 x 16; see
+    /// [`NODE_SHIFTS`]) of the
+    /// bucket hierarchy.
+    pub fn bucket_nodes(&self, level: usize) -> &BucketNodes {
+        &self.bucket_nodes[level]
+    }
+
+    /// The bucket grid's columns and rows.
+    pub fn bucket_dims(&self) -> (usize, usize) {
+        (self.buckets.nx(), self.buckets.ny())
+    }
+
+    /// The (unclamped) column and row of the bucket holding `p`.
+    pub fn bucket_cell_of(&self, p: DVec2) -> (i64, i64) {
+        self.buckets.cell_of(p)
+    }
+
+    /// The index of the bucket in column `x`, row `y`.
+    pub fn bucket_index(&self, x: usize, y: usize) -> usize {
+        self.buckets.index((x, y))
+    }
+
+    /// How many buckets there are.
+    pub fn bucket_count(&self) -> usize {
+        self.buckets.len()
+    }
+
+    /// The column and row of bucket `b`.
+    pub fn bucket_key(&self, b: usize) -> (usize, usize) {
+        (b % self.buckets.nx(), b / self.buckets.nx())
+    }
+
     /// The square bucket `b` covers.
     pub fn bucket_rect(&self, b: usize) -> Rect {
         self.buckets.cell_rect(b)
@@ -261,6 +307,87 @@ impl SceneIndex {
                 f(e);
             }
         });
+    }
+}
+
+/// Side, as a power of two in buckets, of the nodes of each level of the
+/// bucket hierarchy: 4 x 4 and 16 x 16 buckets.
+pub const NODE_SHIFTS: [u32; NODE_LEVELS] = [2, 4];
+
+/// How many levels the bucket hierarchy has.
+pub const NODE_LEVELS: usize = 2;
+
+/// How far each node's rectangle is grown beyond the union of its buckets'
+/// chain rectangles, in metres: a margin far above the rounding of the
+/// pseudo-angles, so every direction to a bucket's rectangle is computed
+/// inside the node's bins (docs/DESIGN.md, "The bucket hierarchy").
+const NODE_RECT_MARGIN: f64 = 1e-3;
+
+/// One level of the bucket hierarchy: the squares of `1 << shift` by
+/// `1 << shift` buckets (from the bucket grid's origin), each with the
+/// union of every chain rectangle of its buckets (all three strides), grown
+/// by [`NODE_RECT_MARGIN`], and the greatest height of its buckets.
+#[derive(Clone, Debug)]
+pub struct BucketNodes {
+    shift: u32,
+    nx: usize,
+    rects: Vec<Rect>,
+    heights: Vec<f64>,
+}
+
+impl BucketNodes {
+    fn build(
+        buckets: &UniformGrid,
+        shift: u32,
+        heights: &[f64],
+        chain_rects: &[[Rect; 4]],
+    ) -> BucketNodes {
+        let side = 1usize << shift;
+        let nx = buckets.nx().div_ceil(side);
+        let ny = buckets.ny().div_ceil(side);
+        let mut rects = vec![Rect::EMPTY; nx * ny];
+        let mut node_heights = vec![0.0f64; nx * ny];
+        for b in 0..buckets.len() {
+            let n = ((b / buckets.nx()) >> shift) * nx + ((b % buckets.nx()) >> shift);
+            rects[n] = rects[n].union(&chain_rects[b][3]);
+            node_heights[n] = node_heights[n].max(heights[b]);
+        }
+        for r in &mut rects {
+            if !r.is_empty() {
+                *r = r.grown(NODE_RECT_MARGIN);
+            }
+        }
+        BucketNodes {
+            shift,
+            nx,
+            rects,
+            heights: node_heights,
+        }
+    }
+
+    /// How many nodes the level has.
+    pub fn len(&self) -> usize {
+        self.rects.len()
+    }
+
+    /// Never true for a built index (a grid has at least one bucket).
+    pub fn is_empty(&self) -> bool {
+        self.rects.is_empty()
+    }
+
+    /// The node holding the bucket in column `x`, row `y`.
+    pub fn node_of(&self, x: usize, y: usize) -> usize {
+        (y >> self.shift) * self.nx + (x >> self.shift)
+    }
+
+    /// The node's grown chain rectangle (empty when no edge starts in it).
+    pub fn rect(&self, n: usize) -> &Rect {
+        &self.rects[n]
+    }
+
+    /// The greatest height of the node's buckets.
+    pub fn height(&self, n: usize) -> f64 {
+        self.heights[n]
     }
 }
 
@@ -329,6 +456,33 @@ fn collect_edges(occluders: &[Occluder]) -> Vec<OccluderEdge> {
         }
     }
     edges
+}
+
+/// The edges renumbered by the bucket holding their first point (a stable
+/// sort: within a bucket they keep their order, and the pieces of a ring
+/// mostly follow each other), `next` following the renumbering. The sweep
+/// then reads each bucket's edges and their chains from one stretch of
+/// memory. Nothing else depends on the numbering: the chains and their
+/// order within a bucket are the same, and the near-field map draws the
+/// edges in an order fixed by their coordinates.
+fn in_bucket_order(edges: Vec<OccluderEdge>, buckets: &UniformGrid) -> Vec<OccluderEdge> {
+    let mut keyed: Vec<(u32, u32)> = (0..edges.len())
+        .map(|e| (buckets.index(buckets.key(edges[e].a)) as u32, e as u32))
+        .collect();
+    keyed.sort_unstable();
+    let order: Vec<u32> = keyed.into_iter().map(|(_, e)| e).collect();
+    let mut new_id = vec![0u32; edges.len()];
+    for (n, &e) in order.iter().enumerate() {
+        new_id[e as usize] = n as u32;
+    }
+    order
+        .iter()
+        .map(|&e| {
+            let mut edge = edges[e as usize];
+            edge.next = new_id[edge.next as usize];
+            edge
+        })
+        .collect()
 }
 
 /// Every pixel whose centre lies inside the footprint or within half a

@@ -18,7 +18,7 @@ use glam::DVec2;
 use super::bitset::ObjectSet;
 use super::cullmap::CullWindow;
 use super::horizon::{Horizon, bins_overlap, floor_i64, rect_bins};
-use super::index::{MAX_EDGE_PIECE, NO_PARENT, SceneIndex};
+use super::index::{MAX_EDGE_PIECE, NO_PARENT, NODE_LEVELS, NODE_SHIFTS, SceneIndex};
 use crate::model::{Rect, distance_to_segment};
 
 /// Default half-size in metres of the near-field cull map.
@@ -73,20 +73,31 @@ fn bucket_stride(vc: (i64, i64), rect: &Rect) -> Option<u32> {
 
 /// The greatest distance from `v` to the points of the chain of `pieces`
 /// pieces starting at edge `e`.
+///
+/// The square root is taken once, of the greatest squared distance: a
+/// correctly rounded square root is monotone, so this is bit for bit the
+/// greatest of the distances.
 fn chain_reach(index: &SceneIndex, v: DVec2, e: u32, pieces: u32) -> f64 {
     let edge = &index.edges[e as usize];
-    let mut d_max = edge.a.distance(v);
+    let mut d2_max = (edge.a - v).length_squared();
     let mut cur = e;
     for _ in 0..pieces {
         let c = &index.edges[cur as usize];
-        d_max = d_max.max(c.b.distance(v));
+        let d2 = (c.b - v).length_squared();
+        if d2 > d2_max {
+            d2_max = d2;
+        }
         cur = c.next;
     }
-    d_max
+    d2_max.sqrt()
 }
 
 /// Width in metres of the distance slots of the chain queue.
 const CHAIN_SLOT: f64 = 4.0;
+
+/// A chain waiting to enter the horizon: its reach (greatest distance from
+/// the sample), first piece, piece count and the bucket it starts in.
+type QueuedChain = (f64, u32, u32, u32);
 
 /// Chains waiting to enter the horizon, in distance slots: a chain only has
 /// to be in the horizon before an item farther than its farthest point is
@@ -94,7 +105,7 @@ const CHAIN_SLOT: f64 = 4.0;
 /// (a per-bin max), so a coarse order is enough.
 #[derive(Default)]
 struct ChainQueue {
-    slots: Vec<Vec<(f64, u32, u32)>>,
+    slots: Vec<Vec<QueuedChain>>,
     /// Every slot below this one is empty.
     first: usize,
     len: usize,
@@ -110,7 +121,7 @@ impl ChainQueue {
         self.len = 0;
     }
 
-    fn push(&mut self, d: f64, e: u32, pieces: u32) {
+    fn push(&mut self, d: f64, e: u32, pieces: u32, bucket: u32) {
         // A chain is never found after items beyond it were tested (the
         // bucket sweep runs ahead); should one be, it simply enters late,
         // which can only leave more visible.
@@ -118,12 +129,12 @@ impl ChainQueue {
         if slot >= self.slots.len() {
             self.slots.resize_with(slot + 1, Vec::new);
         }
-        self.slots[slot].push((d, e, pieces));
+        self.slots[slot].push((d, e, pieces, bucket));
         self.len += 1;
     }
 
     /// Move every chain nearer than `r` into `out`.
-    fn take_nearer(&mut self, r: f64, out: &mut Vec<(f64, u32, u32)>) {
+    fn take_nearer(&mut self, r: f64, out: &mut Vec<QueuedChain>) {
         if self.len == 0 {
             return;
         }
@@ -162,6 +173,14 @@ fn key(d: f64) -> u64 {
     d.max(0.0).to_bits()
 }
 
+/// What the sweep last found for a node of the bucket hierarchy: at which
+/// horizon state it was tested, and whether the horizon hid it then.
+#[derive(Clone, Copy, Default)]
+struct NodeMark {
+    epoch: u64,
+    hidden: bool,
+}
+
 /// Reusable per-thread state for solving samples.
 pub struct Solver<'a> {
     index: &'a SceneIndex,
@@ -174,7 +193,7 @@ pub struct Solver<'a> {
     gathered: Vec<(f64, u32)>,
     queue: BinaryHeap<Reverse<(u64, Item)>>,
     chains: ChainQueue,
-    ready: Vec<(f64, u32, u32)>,
+    ready: Vec<QueuedChain>,
     /// Edge buckets already swept into `chains`, as a Chebyshev ring radius.
     swept_rings: i64,
     /// Per pyramid node, the greatest height of its objects not yet in the
@@ -184,6 +203,19 @@ pub struct Solver<'a> {
     /// chain sweep's, which runs at the same time).
     raster_stamp: Vec<u32>,
     raster_stamp_value: u32,
+    /// Per level of the bucket hierarchy, per node, the sweep's last test.
+    node_marks: [Vec<NodeMark>; NODE_LEVELS],
+    /// Per bucket, the last test of its chain rectangle when its chains
+    /// were taken from the queue.
+    bucket_marks: Vec<NodeMark>,
+    /// Counts the states of the horizon: one more whenever it is cleared or
+    /// chains enter it.
+    epoch: u64,
+    /// The epoch at which the current sample's horizon was cleared.
+    sample_epoch: u64,
+    /// Whether buckets, nodes and chains below the horizon are skipped
+    /// (always, except in tests: see [`Solver::set_skip_hidden`]).
+    skip_hidden: bool,
 }
 
 impl<'a> Solver<'a> {
@@ -204,7 +236,24 @@ impl<'a> Solver<'a> {
             remaining: Vec::new(),
             raster_stamp: vec![0; index.edges.len()],
             raster_stamp_value: 0,
+            node_marks: std::array::from_fn(|l| {
+                vec![NodeMark::default(); index.bucket_nodes(l).len()]
+            }),
+            bucket_marks: vec![NodeMark::default(); index.bucket_count()],
+            epoch: 1,
+            sample_epoch: 1,
+            skip_hidden: true,
         }
+    }
+
+    /// With `false`, every chain nearer than an item enters the horizon
+    /// in full before the item is tested: no bucket, node of the bucket
+    /// hierarchy or chain is skipped for lying below the horizon. Slower;
+    /// the visible sets must be the same (those skips only leave out
+    /// chains that cannot raise the horizon), which is what tests check.
+    pub fn set_skip_hidden(&mut self, skip: bool) {
+        self.skip_hidden = skip;
+        self.horizon.skip_hidden = skip;
     }
 
     fn next_stamp(&mut self) -> u32 {
@@ -297,6 +346,8 @@ impl<'a> Solver<'a> {
         self.window.place_around(v, self.near_field);
         let mut drawn = false;
         self.horizon.clear();
+        self.epoch += 1;
+        self.sample_epoch = self.epoch;
         self.chains.clear();
         self.swept_rings = -1;
         self.next_stamp();
@@ -388,30 +439,45 @@ impl<'a> Solver<'a> {
         let vc = stride_cell(v);
         while self.swept_rings < rings_needed && self.swept_rings < index.max_bucket_ring(v) {
             self.swept_rings += 1;
-            let ring = self.swept_rings;
-            let eye = self.eye;
-            let (chains, horizon) = (&mut self.chains, &self.horizon);
-            index.buckets_in_ring(v, ring, |bucket| {
-                let height = index.bucket_height(bucket);
-                if height <= eye {
-                    return;
-                }
-                // Every chain that starts in this bucket lies in its chain
-                // rectangle and is no higher than the bucket's highest edge:
-                // if that is all below the horizon already, no chain of the
-                // bucket can raise it (the horizon only grows).
-                let reach =
-                    index.bucket_chain_rect(bucket, bucket_stride(vc, &index.bucket_rect(bucket)));
-                if reach.is_empty() || horizon.hides_rect(v, eye, reach, height) {
-                    return;
-                }
-                queue_bucket_chains(index, v, vc, eye, bucket, chains);
-            });
+            let mut sweep = Sweep {
+                index,
+                v,
+                vc,
+                eye: self.eye,
+                epoch: self.epoch,
+                sample_epoch: self.sample_epoch,
+                horizon: &self.horizon,
+                marks: &mut self.node_marks,
+                chains: &mut self.chains,
+                skip_hidden: self.skip_hidden,
+            };
+            sweep.ring(self.swept_rings);
         }
         let mut ready = std::mem::take(&mut self.ready);
         ready.clear();
         self.chains.take_nearer(r, &mut ready);
-        add_ready_chains(&mut self.horizon, index, v, self.eye, &ready);
+        if !ready.is_empty() {
+            if self.skip_hidden {
+                // The horizon may have grown since a chain's bucket was
+                // swept: a bucket (or node) that it hides now holds no chain
+                // that could raise it (docs/DESIGN.md, "The bucket
+                // hierarchy").
+                let (eye, epoch, sample_epoch) = (self.eye, self.epoch, self.sample_epoch);
+                ready.retain(|&(_, _, _, bucket)| {
+                    !chain_bucket_hidden(
+                        index,
+                        &self.horizon,
+                        &mut self.node_marks,
+                        &mut self.bucket_marks,
+                        (v, eye),
+                        (epoch, sample_epoch),
+                        bucket as usize,
+                    )
+                });
+            }
+            add_ready_chains(&mut self.horizon, index, v, self.eye, &ready);
+            self.epoch += 1;
+        }
         self.ready = ready;
     }
 
@@ -591,8 +657,197 @@ fn queue_bucket_chains(
             continue;
         }
         let pieces = stride + 1;
-        chains.push(chain_reach(index, v, e, pieces), e, pieces);
+        chains.push(chain_reach(index, v, e, pieces), e, pieces, bucket as u32);
     }
+}
+
+/// One ring of the bucket sweep around a sample, against the horizon as it
+/// stands: every bucket of the ring in the order of
+/// [`SceneIndex::buckets_in_ring`], except those under a node of the
+/// bucket hierarchy that the horizon hides (skipped a node's stretch of the
+/// ring at a time).
+struct Sweep<'s, 'a> {
+    index: &'a SceneIndex,
+    v: DVec2,
+    vc: (i64, i64),
+    eye: f64,
+    epoch: u64,
+    sample_epoch: u64,
+    horizon: &'s Horizon,
+    marks: &'s mut [Vec<NodeMark>; NODE_LEVELS],
+    chains: &'s mut ChainQueue,
+    skip_hidden: bool,
+}
+
+impl Sweep<'_, '_> {
+    /// Whether the horizon hides the node of `level` holding bucket
+    /// `(x, y)`: tested at most once per horizon state, and a node once
+    /// hidden stays hidden for the rest of the sample (the horizon only
+    /// grows).
+    fn node_hidden(&mut self, level: usize, x: usize, y: usize) -> bool {
+        if !self.skip_hidden {
+            return false;
+        }
+        let nodes = self.index.bucket_nodes(level);
+        let n = nodes.node_of(x, y);
+        let mark = &mut self.marks[level][n];
+        if mark.epoch == self.epoch || (mark.hidden && mark.epoch >= self.sample_epoch) {
+            return mark.hidden;
+        }
+        let height = nodes.height(n);
+        let rect = nodes.rect(n);
+        let hidden = height <= self.eye
+            || rect.is_empty()
+            || self.horizon.hides_rect(self.v, self.eye, rect, height);
+        *mark = NodeMark {
+            epoch: self.epoch,
+            hidden,
+        };
+        hidden
+    }
+
+    /// Test bucket `(x, y)` and queue its chains unless it (or a node
+    /// holding it) is below the horizon.
+    fn bucket(&mut self, x: usize, y: usize) {
+        // First the bucket's nodes in the hierarchy, largest first: a node
+        // whose rectangle and height the horizon hides holds no chain that
+        // could raise it, now or later in this sample (docs/DESIGN.md, "The
+        // bucket hierarchy").
+        if (0..NODE_LEVELS)
+            .rev()
+            .any(|level| self.node_hidden(level, x, y))
+        {
+            return;
+        }
+        let (index, v, eye) = (self.index, self.v, self.eye);
+        let bucket = index.bucket_index(x, y);
+        let height = index.bucket_height(bucket);
+        if height <= eye {
+            return;
+        }
+        // Every chain that starts in this bucket lies in its chain
+        // rectangle and is no higher than the bucket's highest edge: if
+        // that is all below the horizon already, no chain of the bucket can
+        // raise it (the horizon only grows).
+        let reach =
+            index.bucket_chain_rect(bucket, bucket_stride(self.vc, &index.bucket_rect(bucket)));
+        if reach.is_empty() || (self.skip_hidden && self.horizon.hides_rect(v, eye, reach, height))
+        {
+            return;
+        }
+        queue_bucket_chains(index, v, self.vc, eye, bucket, self.chains);
+    }
+
+    /// Where the stretch of buckets from `i` onwards that shares nodes of
+    /// `level` with `i` ends (at most `end`), when every node of `level`
+    /// holding `(i, along)` for the given lines is hidden (or the line is
+    /// outside the grid); `None` otherwise. `at(i, line)` is the bucket.
+    fn hidden_stretch(
+        &mut self,
+        level: usize,
+        i: usize,
+        end: usize,
+        lines: [Option<usize>; 2],
+        at: impl Fn(usize, usize) -> (usize, usize),
+    ) -> Option<usize> {
+        for line in lines.into_iter().flatten() {
+            let (x, y) = at(i, line);
+            if !self.node_hidden(level, x, y) {
+                return None;
+            }
+        }
+        let side = 1usize << NODE_SHIFTS[level];
+        Some((i | (side - 1)).min(end))
+    }
+
+    /// Walk buckets `lo..=hi` along a pair of lines (two rows, or two
+    /// columns), visiting `at(i, line)` for each line in turn at every `i`,
+    /// and jumping over stretches whose nodes are hidden on both lines.
+    fn walk(
+        &mut self,
+        lo: usize,
+        hi: usize,
+        lines: [Option<usize>; 2],
+        at: impl Fn(usize, usize) -> (usize, usize) + Copy,
+    ) {
+        let mut i = lo;
+        'walk: while i <= hi {
+            for level in (0..NODE_LEVELS).rev() {
+                if let Some(last) = self.hidden_stretch(level, i, hi, lines, at) {
+                    i = last + 1;
+                    continue 'walk;
+                }
+            }
+            for line in lines.into_iter().flatten() {
+                let (x, y) = at(i, line);
+                self.bucket(x, y);
+            }
+            i += 1;
+        }
+    }
+
+    /// Every bucket at Chebyshev distance exactly `ring` from the sample's
+    /// bucket, in the order of [`UniformGrid::for_each_in_ring`]: the
+    /// bottom and top rows left to right, then the left and right columns
+    /// upwards.
+    fn ring(&mut self, ring: i64) {
+        let (nx, ny) = self.index.bucket_dims();
+        let (nx, ny) = (nx as i64, ny as i64);
+        let (cx, cy) = self.index.bucket_cell_of(self.v);
+        let inside = |c: i64, n: i64| (c >= 0 && c < n).then_some(c as usize);
+        if ring == 0 {
+            if let (Some(x), Some(y)) = (inside(cx, nx), inside(cy, ny)) {
+                self.bucket(x, y);
+            }
+            return;
+        }
+        let rows = [inside(cy - ring, ny), inside(cy + ring, ny)];
+        let (x0, x1) = ((cx - ring).max(0), (cx + ring).min(nx - 1));
+        if rows.iter().any(Option::is_some) && x0 <= x1 {
+            self.walk(x0 as usize, x1 as usize, rows, |i, line| (i, line));
+        }
+        let columns = [inside(cx - ring, nx), inside(cx + ring, nx)];
+        let (y0, y1) = ((cy - ring + 1).max(0), (cy + ring - 1).min(ny - 1));
+        if columns.iter().any(Option::is_some) && y0 <= y1 {
+            self.walk(y0 as usize, y1 as usize, columns, |i, line| (line, i));
+        }
+    }
+}
+
+/// Whether the horizon now hides bucket `bucket`'s node of either level or
+/// its chain rectangle over all strides at its height, remembered per
+/// horizon state in `node_marks` and `bucket_marks` (a hidden mark stays
+/// valid for the rest of the sample: the horizon only grows).
+fn chain_bucket_hidden(
+    index: &SceneIndex,
+    horizon: &Horizon,
+    node_marks: &mut [Vec<NodeMark>; NODE_LEVELS],
+    bucket_marks: &mut [NodeMark],
+    (v, eye): (DVec2, f64),
+    (epoch, sample_epoch): (u64, u64),
+    bucket: usize,
+) -> bool {
+    let test = |mark: &mut NodeMark, rect: &Rect, height: f64| {
+        if mark.epoch == epoch || (mark.hidden && mark.epoch >= sample_epoch) {
+            return mark.hidden;
+        }
+        let hidden = height <= eye || rect.is_empty() || horizon.hides_rect(v, eye, rect, height);
+        *mark = NodeMark { epoch, hidden };
+        hidden
+    };
+    let (x, y) = index.bucket_key(bucket);
+    for level in (0..NODE_LEVELS).rev() {
+        let nodes = index.bucket_nodes(level);
+        let n = nodes.node_of(x, y);
+        if test(&mut node_marks[level][n], nodes.rect(n), nodes.height(n)) {
+            return true;
+        }
+    }
+    test(
+        &mut bucket_marks[bucket],
+        index.bucket_chain_rect(bucket, None),
+        index.bucket_height(bucket),
+    )
 }
 
 /// Add the chains taken from the queue (first piece, piece count) to the
@@ -602,9 +857,9 @@ fn add_ready_chains(
     index: &SceneIndex,
     v: DVec2,
     eye: f64,
-    ready: &[(f64, u32, u32)],
+    ready: &[QueuedChain],
 ) {
-    for &(_, e, pieces) in ready {
+    for &(_, e, pieces, _) in ready {
         let edge = &index.edges[e as usize];
         let mut cur = e;
         let mut count = 0;

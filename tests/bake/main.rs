@@ -9,6 +9,7 @@ mod common;
 mod flags_refused;
 mod output_files;
 mod settings_cli;
+mod skip_hidden;
 mod tiny_buildings;
 mod tiny_opening;
 mod visibility_cases;

@@ -1,0 +1,93 @@
+//! The solver's skips of what lies below the horizon (whole nodes of the
+//! bucket hierarchy, buckets, chains re-checked when they leave the queue,
+//! chains that cannot raise any bin) leave out only chains that cannot
+//! raise the horizon: the visible sets are the same as when every chain
+//! nearer than an item enters the horizon in full before the item is
+//! tested (`Solver::set_skip_hidden(false)`).
+
+use citypvs::generate::{GenerateParams, generate_geojson};
+use citypvs::input::{InputOptions, read_city_bytes};
+use citypvs::prepare::{Scene, prepare};
+use citypvs::visibility::bitset::ObjectSet;
+use citypvs::visibility::index::SceneIndex;
+use citypvs::visibility::samples::MeshTopology;
+use citypvs::visibility::solver::Solver;
+use glam::DVec2;
+use proptest::prelude::*;
+
+fn scene(buildings: usize, seed: u64) -> Scene {
+    let geojson = generate_geojson(&GenerateParams { buildings, seed });
+    let city = read_city_bytes(
+        geojson.as_bytes(),
+        &format!("generated-{seed}"),
+        &InputOptions::default(),
+    )
+    .expect("read generated city");
+    prepare(city, &citypvs::Settings::default()).expect("prepare")
+}
+
+/// Solve about `runs` units (edge runs and single vertices spread over the
+/// city) with the skips on and off; panic on the first set that differs.
+/// Returns the total size of the sets and the number of objects times the
+/// number of units, so callers can check the sets are neither empty nor
+/// everything.
+fn compare(scene: &Scene, runs: usize) -> (usize, usize) {
+    let params = &scene.settings;
+    let index = SceneIndex::build(&scene.city.buildings, &scene.occluders, params.pixel);
+    let topo = MeshTopology::of(&scene.cells.triangles);
+    let n = scene.city.buildings.len();
+    let spacing = params.sample_spacing();
+    let edge_step = (topo.edges.len() / runs.max(1)).max(1);
+    let vertex_step = (topo.vertices.len() / runs.max(1)).max(1);
+    let mut units: Vec<Vec<DVec2>> = (0..topo.edges.len())
+        .step_by(edge_step)
+        .map(|e| topo.edge_interior_samples(e, spacing))
+        .filter(|r| !r.is_empty())
+        .collect();
+    units.extend(topo.vertices.iter().step_by(vertex_step).map(|&v| vec![v]));
+    let mut fast = Solver::new(&index, params.eye_height, params.near_field);
+    let mut full = Solver::new(&index, params.eye_height, params.near_field);
+    full.set_skip_hidden(false);
+    let mut seen = 0;
+    for (u, points) in units.iter().enumerate() {
+        let mut a = ObjectSet::new(n);
+        fast.solve_run(points, &mut a);
+        let mut b = ObjectSet::new(n);
+        full.solve_run(points, &mut b);
+        assert_eq!(
+            a.to_vec(),
+            b.to_vec(),
+            "unit {u} ({} points from {:?}): the skips changed the visible set",
+            points.len(),
+            points[0]
+        );
+        seen += a.count();
+    }
+    (seen, n * units.len())
+}
+
+#[test]
+fn a_city_with_districts_far_apart_sees_the_same_with_and_without_skips() {
+    // 400 buildings span several 256 m nodes of the bucket hierarchy, so
+    // whole nodes are skipped from most samples.
+    let (seen, all) = compare(&scene(400, 3), 60);
+    assert!(seen > 0, "something is visible");
+    assert!(
+        seen * 4 < all,
+        "most of the city is hidden: {seen} of {all}"
+    );
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(8))]
+
+    #[test]
+    fn random_cities_see_the_same_with_and_without_skips(
+        buildings in 30usize..160,
+        seed in any::<u64>(),
+    ) {
+        let (seen, all) = compare(&scene(buildings, seed), 40);
+        prop_assert!(seen > 0);
+        prop_assert!(seen < all);
+    }
+}
