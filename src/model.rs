@@ -159,8 +159,17 @@ pub fn point_in_multipolygon(p: DVec2, mp: &[Polygon]) -> bool {
     mp.iter().any(|poly| point_in_polygon(p, poly))
 }
 
-/// Distance from `p` to the segment `a`-`b`.
+/// Distance from `p` to the segment `a`-`b`: the square root of
+/// [`squared_distance_to_segment`] (so the least of several distances is,
+/// bit for bit, the root of the least square: a correctly rounded square
+/// root is monotone).
 pub fn distance_to_segment(p: DVec2, a: DVec2, b: DVec2) -> f64 {
+    squared_distance_to_segment(p, a, b).sqrt()
+}
+
+/// The square of the distance from `p` to the segment `a`-`b`.
+#[inline]
+pub fn squared_distance_to_segment(p: DVec2, a: DVec2, b: DVec2) -> f64 {
     let ab = b - a;
     let len2 = ab.length_squared();
     let t = if len2 > 0.0 {
@@ -168,7 +177,7 @@ pub fn distance_to_segment(p: DVec2, a: DVec2, b: DVec2) -> f64 {
     } else {
         0.0
     };
-    (a + ab * t).distance(p)
+    ((a + ab * t) - p).length_squared()
 }
 
 /// The fewest equal pieces (at least one) the segment from `a` to `b` can

@@ -286,15 +286,15 @@ impl Settings {
         }
         let min_gap = non_negative("min-gap", raw.min_gap.unwrap_or(DEFAULT_MIN_GAP), 100.0)?;
         Ok(Settings {
-            numbers: BakeNumbers {
+            numbers: BakeNumbers::from_values([
                 eps,
-                pixel,
                 eye_height,
+                pixel,
                 max_cell_edge,
                 margin,
                 near_field,
                 min_gap,
-            },
+            ]),
             region: raw.region,
         })
     }

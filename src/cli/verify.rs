@@ -108,8 +108,11 @@ fn run_in_pool(args: &VerifyArgs, threads: usize) -> Result<i32> {
     let checked = options
         .cells
         .map_or(reader.cell_count(), |k| k.min(reader.cell_count()));
-    let bar =
-        super::common::progress_bar(args.run.quiet, "viewpoints", (checked * args.samples) as u64);
+    let bar = super::common::progress_bar(
+        args.run.quiet,
+        "viewpoints",
+        (checked * args.samples) as u64,
+    );
     let tick = |n: u64| {
         if let Some(b) = &bar {
             b.inc(n)

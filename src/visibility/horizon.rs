@@ -22,7 +22,7 @@
 
 use glam::DVec2;
 
-use crate::model::Rect;
+use crate::model::{Rect, squared_distance_to_segment};
 
 /// Number of azimuth bins.
 pub const BINS: usize = 2048;
@@ -125,22 +125,6 @@ fn min_of(a: f64, b: f64) -> f64 {
 #[inline]
 fn max_of(a: f64, b: f64) -> f64 {
     if b > a { b } else { a }
-}
-
-/// The square of [`crate::model::distance_to_segment`], computed the same
-/// way up to its square root: the least of these, square-rooted, is bit for
-/// bit the least of the distances (a correctly rounded square root is
-/// monotone).
-#[inline]
-fn squared_distance_to_segment(p: DVec2, a: DVec2, b: DVec2) -> f64 {
-    let ab = b - a;
-    let len2 = ab.length_squared();
-    let t = if len2 > 0.0 {
-        ((p - a).dot(ab) / len2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    ((a + ab * t) - p).length_squared()
 }
 
 /// The bin (unwrapped, any integer) holding pseudo-angle `a`.
@@ -347,21 +331,16 @@ impl Horizon {
     }
 
     fn hides_rect_by(&self, v: DVec2, eye: f64, rect: &Rect, top: f64, margin: f64) -> bool {
-        let nearest = v.clamp(rect.min, rect.max);
-        let r_min = nearest.distance(v);
-        if r_min < 1e-6 {
+        let Some((lo, hi)) = rect_bins(v, rect) else {
             return false;
-        }
-        let corners = [
-            rect.min,
-            DVec2::new(rect.max.x, rect.min.y),
-            rect.max,
-            DVec2::new(rect.min.x, rect.max.y),
-        ];
+        };
         let need = if top >= eye {
-            (top - eye) / r_min
+            (top - eye) / v.clamp(rect.min, rect.max).distance(v)
         } else {
-            let r_max = corners.iter().map(|c| c.distance(v)).fold(0.0, f64::max);
+            let r_max = corners(rect)
+                .iter()
+                .map(|c| c.distance(v))
+                .fold(0.0, f64::max);
             (top - eye) / r_max
         };
         let need = if margin > 0.0 {
@@ -369,15 +348,7 @@ impl Horizon {
         } else {
             need
         };
-        let reference = unwrapped_angle(v, corners[0], 0.0);
-        let mut lo = reference;
-        let mut hi = reference;
-        for c in &corners[1..] {
-            let a = unwrapped_angle(v, *c, reference);
-            lo = lo.min(a);
-            hi = hi.max(a);
-        }
-        self.all_at_least(bin_of(lo), bin_of(hi), need)
+        self.all_at_least(lo, hi, need)
     }
 
     /// Whether every bin of `lo..=hi` (unwrapped) has a slope of at least
@@ -414,12 +385,7 @@ pub fn rect_bins(v: DVec2, rect: &Rect) -> Option<(i64, i64)> {
     if v.clamp(rect.min, rect.max).distance(v) < 1e-6 {
         return None;
     }
-    let corners = [
-        rect.min,
-        DVec2::new(rect.max.x, rect.min.y),
-        rect.max,
-        DVec2::new(rect.min.x, rect.max.y),
-    ];
+    let corners = corners(rect);
     let reference = unwrapped_angle(v, corners[0], 0.0);
     let (mut lo, mut hi) = (reference, reference);
     for c in &corners[1..] {
@@ -430,6 +396,16 @@ pub fn rect_bins(v: DVec2, rect: &Rect) -> Option<(i64, i64)> {
     let (lo, hi) = (bin_of(lo), bin_of(hi));
     let shift = lo.div_euclid(BINS as i64) * BINS as i64;
     Some((lo - shift, hi - shift))
+}
+
+/// The corners of `rect`, counter-clockwise from its minimum.
+fn corners(rect: &Rect) -> [DVec2; 4] {
+    [
+        rect.min,
+        DVec2::new(rect.max.x, rect.min.y),
+        rect.max,
+        DVec2::new(rect.min.x, rect.max.y),
+    ]
 }
 
 /// Whether two bin ranges of [`rect_bins`] share a bin (modulo a turn).
