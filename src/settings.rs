@@ -99,24 +99,15 @@ impl BakeNumbers {
     }
 
     /// The numbers from their values in the order of [`BakeNumbers::NAMES`].
-    pub fn from_values(values: [f64; 7]) -> BakeNumbers {
-        let [
-            eps,
-            eye_height,
-            pixel,
-            max_cell_edge,
-            margin,
-            near_field,
-            min_gap,
-        ] = values;
+    pub fn from_values(v: [f64; 7]) -> BakeNumbers {
         BakeNumbers {
-            eps,
-            pixel,
-            eye_height,
-            max_cell_edge,
-            margin,
-            near_field,
-            min_gap,
+            eps: v[0],
+            eye_height: v[1],
+            pixel: v[2],
+            max_cell_edge: v[3],
+            margin: v[4],
+            near_field: v[5],
+            min_gap: v[6],
         }
     }
 
