@@ -331,11 +331,13 @@ impl Horizon {
     }
 
     fn hides_rect_by(&self, v: DVec2, eye: f64, rect: &Rect, top: f64, margin: f64) -> bool {
-        let Some((lo, hi)) = rect_bins(v, rect) else {
+        let r_min = v.clamp(rect.min, rect.max).distance(v);
+        if r_min < 1e-6 {
             return false;
-        };
+        }
+        let (lo, hi) = bins_of(v, rect);
         let need = if top >= eye {
-            (top - eye) / v.clamp(rect.min, rect.max).distance(v)
+            (top - eye) / r_min
         } else {
             let r_max = corners(rect)
                 .iter()
@@ -385,6 +387,12 @@ pub fn rect_bins(v: DVec2, rect: &Rect) -> Option<(i64, i64)> {
     if v.clamp(rect.min, rect.max).distance(v) < 1e-6 {
         return None;
     }
+    Some(bins_of(v, rect))
+}
+
+/// The bins `lo..=hi` (`lo` in `0..BINS`) that the directions from `v`
+/// (not in `rect`) to `rect` span.
+fn bins_of(v: DVec2, rect: &Rect) -> (i64, i64) {
     let corners = corners(rect);
     let reference = unwrapped_angle(v, corners[0], 0.0);
     let (mut lo, mut hi) = (reference, reference);
@@ -395,7 +403,7 @@ pub fn rect_bins(v: DVec2, rect: &Rect) -> Option<(i64, i64)> {
     }
     let (lo, hi) = (bin_of(lo), bin_of(hi));
     let shift = lo.div_euclid(BINS as i64) * BINS as i64;
-    Some((lo - shift, hi - shift))
+    (lo - shift, hi - shift)
 }
 
 /// The corners of `rect`, counter-clockwise from its minimum.

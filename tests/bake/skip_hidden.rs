@@ -5,26 +5,13 @@
 //! nearer than an item enters the horizon in full before the item is
 //! tested (`Solver::set_skip_hidden(false)`).
 
-use citypvs::generate::{GenerateParams, generate_geojson};
-use citypvs::input::{InputOptions, read_city_bytes};
-use citypvs::prepare::{Scene, prepare};
+use citypvs::prepare::Scene;
 use citypvs::visibility::bitset::ObjectSet;
 use citypvs::visibility::index::SceneIndex;
 use citypvs::visibility::samples::MeshTopology;
 use citypvs::visibility::solver::Solver;
 use glam::DVec2;
 use proptest::prelude::*;
-
-fn scene(buildings: usize, seed: u64) -> Scene {
-    let geojson = generate_geojson(&GenerateParams { buildings, seed });
-    let city = read_city_bytes(
-        geojson.as_bytes(),
-        &format!("generated-{seed}"),
-        &InputOptions::default(),
-    )
-    .expect("read generated city");
-    prepare(city, &citypvs::Settings::default()).expect("prepare")
-}
 
 /// Solve about `runs` units (edge runs and single vertices spread over the
 /// city) with the skips on and off; panic on the first set that differs.
@@ -70,7 +57,7 @@ fn compare(scene: &Scene, runs: usize) -> (usize, usize) {
 fn a_city_with_districts_far_apart_sees_the_same_with_and_without_skips() {
     // 400 buildings span several 256 m nodes of the bucket hierarchy, so
     // whole nodes are skipped from most samples.
-    let (seen, all) = compare(&scene(400, 3), 60);
+    let (seen, all) = compare(&crate::common::generated_scene(400, 3), 60);
     assert!(seen > 0, "something is visible");
     assert!(
         seen * 4 < all,
@@ -86,7 +73,7 @@ proptest! {
         buildings in 30usize..160,
         seed in any::<u64>(),
     ) {
-        let (seen, all) = compare(&scene(buildings, seed), 40);
+        let (seen, all) = compare(&crate::common::generated_scene(buildings, seed), 40);
         prop_assert!(seen > 0);
         prop_assert!(seen < all);
     }

@@ -3,29 +3,15 @@
 //! before, it keeps everything its first sample sees, and a bake gives the
 //! same sets for any thread count.
 
-use citypvs::generate::{GenerateParams, generate_geojson};
-use citypvs::input::{InputOptions, read_city_bytes};
-use citypvs::prepare::{Scene, prepare};
 use citypvs::visibility::bitset::ObjectSet;
 use citypvs::visibility::index::SceneIndex;
 use citypvs::visibility::samples::MeshTopology;
 use citypvs::visibility::solver::Solver;
 use glam::DVec2;
 
-fn scene(buildings: usize, seed: u64) -> Scene {
-    let geojson = generate_geojson(&GenerateParams { buildings, seed });
-    let city = read_city_bytes(
-        geojson.as_bytes(),
-        &format!("generated-{seed}"),
-        &InputOptions::default(),
-    )
-    .expect("read generated city");
-    prepare(city, &citypvs::Settings::default()).expect("prepare")
-}
-
 #[test]
 fn a_run_does_not_depend_on_what_the_solver_solved_before() {
-    let scene = scene(120, 4);
+    let scene = crate::common::generated_scene(120, 4);
     let params = &scene.settings;
     let index = SceneIndex::build(&scene.city.buildings, &scene.occluders, params.pixel);
     let topo = MeshTopology::of(&scene.cells.triangles);
@@ -90,7 +76,7 @@ fn a_run_does_not_depend_on_what_the_solver_solved_before() {
 fn a_run_keeps_everything_its_first_sample_sees() {
     // The first sample of a run starts from the same empty set as the
     // sample alone, so it gives exactly the same verdicts.
-    let scene = scene(80, 9);
+    let scene = crate::common::generated_scene(80, 9);
     let params = &scene.settings;
     let index = SceneIndex::build(&scene.city.buildings, &scene.occluders, params.pixel);
     let topo = MeshTopology::of(&scene.cells.triangles);
@@ -116,7 +102,7 @@ fn a_run_keeps_everything_its_first_sample_sees() {
 
 #[test]
 fn bake_sets_do_not_depend_on_the_thread_count() {
-    let scene = scene(100, 2);
+    let scene = crate::common::generated_scene(100, 2);
     let run = |threads: usize| {
         rayon::ThreadPoolBuilder::new()
             .num_threads(threads)

@@ -178,3 +178,62 @@ pub fn error_of<T>(result: citypvs::Result<T>, kind: citypvs::ErrorKind) -> Stri
     assert_eq!(err.kind(), &kind, "{err}");
     err.to_string()
 }
+
+/// A metric GeoJSON city of `n` 1 m squares, 4 m apart, 5 m high: they all
+/// erode to nothing, so every cell sees every building.
+pub fn tiny_city(n: usize) -> String {
+    let side = (n as f64).sqrt().ceil() as usize;
+    let features: Vec<String> = (0..n)
+        .map(|k| {
+            let (x, y) = ((k % side) as f64 * 4.0, (k / side) as f64 * 4.0);
+            let ring: Vec<String> = [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0), (0.0, 0.0)]
+                .iter()
+                .map(|(dx, dy)| format!("[{},{}]", x + dx, y + dy))
+                .collect();
+            format!(
+                r#"{{"type":"Feature","properties":{{"id":"t{k}","height":5}},"geometry":{{"type":"Polygon","coordinates":[[{}]]}}}}"#,
+                ring.join(",")
+            )
+        })
+        .collect();
+    format!(
+        r#"{{"type":"FeatureCollection","features":[{}]}}"#,
+        features.join(",")
+    )
+}
+
+/// Run `citypvs ARGS --json` in `dir`, require success, and return the
+/// JSON summary it printed.
+pub fn citypvs_json(dir: &std::path::Path, args: &[&str]) -> serde_json::Value {
+    let mut all = args.to_vec();
+    all.push("--json");
+    let out = citypvs(dir, &all);
+    assert!(out.status.success(), "{}", stderr(&out));
+    serde_json::from_slice(&out.stdout).expect("a JSON summary")
+}
+
+/// The prepared scene of a generated city at the default settings.
+pub fn generated_scene(buildings: usize, seed: u64) -> Scene {
+    use citypvs::generate::{GenerateParams, generate_geojson};
+    let geojson = generate_geojson(&GenerateParams { buildings, seed });
+    let city = citypvs::input::read_city_bytes(
+        geojson.as_bytes(),
+        &format!("generated-{seed}"),
+        &citypvs::input::InputOptions::default(),
+    )
+    .expect("read generated city");
+    citypvs::prepare::prepare(city, &citypvs::Settings::default()).expect("prepare")
+}
+
+/// The bake numbers the format tests write into their headers.
+pub fn test_numbers() -> citypvs::BakeNumbers {
+    citypvs::BakeNumbers {
+        eps: 0.25,
+        eye_height: 1.7,
+        pixel: 0.125,
+        max_cell_edge: 20.0,
+        margin: 30.0,
+        near_field: 48.0,
+        min_gap: 0.0,
+    }
+}

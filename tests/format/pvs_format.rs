@@ -10,15 +10,7 @@ use rand_chacha::ChaCha8Rng;
 
 fn info(frame: Frame) -> BakeInfo {
     BakeInfo {
-        numbers: citypvs::BakeNumbers {
-            eps: 0.25,
-            eye_height: 1.7,
-            pixel: 0.125,
-            max_cell_edge: 20.0,
-            margin: 30.0,
-            near_field: 48.0,
-            min_gap: 0.0,
-        },
+        numbers: crate::common::test_numbers(),
         frame,
         source_hash: std::array::from_fn(|i| (i * 7 + 3) as u8),
         region_hash: [0; 32],

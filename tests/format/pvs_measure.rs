@@ -156,15 +156,7 @@ fn write_and_open_timing_on_a_large_file() {
     let data = PvsData {
         object_prints: Vec::new(),
         info: BakeInfo {
-            numbers: citypvs::BakeNumbers {
-                eps: 0.25,
-                eye_height: 1.7,
-                pixel: 0.125,
-                max_cell_edge: 20.0,
-                margin: 30.0,
-                near_field: 48.0,
-                min_gap: 0.0,
-            },
+            numbers: crate::common::test_numbers(),
             frame: Frame::LonLat {
                 lon0: 26.9,
                 lat0: 60.4,
