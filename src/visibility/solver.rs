@@ -213,9 +213,6 @@ pub struct Solver<'a> {
     epoch: u64,
     /// The epoch at which the current sample's horizon was cleared.
     sample_epoch: u64,
-    /// Whether buckets, nodes and chains below the horizon are skipped
-    /// (always, except in tests: see [`Solver::set_skip_hidden`]).
-    skip_hidden: bool,
 }
 
 impl<'a> Solver<'a> {
@@ -242,7 +239,6 @@ impl<'a> Solver<'a> {
             bucket_marks: vec![NodeMark::default(); index.bucket_count()],
             epoch: 1,
             sample_epoch: 1,
-            skip_hidden: true,
         }
     }
 
@@ -252,7 +248,7 @@ impl<'a> Solver<'a> {
     /// the visible sets must be the same (those skips only leave out
     /// chains that cannot raise the horizon), which is what tests check.
     pub fn set_skip_hidden(&mut self, skip: bool) {
-        self.skip_hidden = skip;
+        // One switch, kept by the horizon, read by the sweep too.
         self.horizon.skip_hidden = skip;
     }
 
@@ -449,7 +445,6 @@ impl<'a> Solver<'a> {
                 horizon: &self.horizon,
                 marks: &mut self.node_marks,
                 chains: &mut self.chains,
-                skip_hidden: self.skip_hidden,
             };
             sweep.ring(self.swept_rings);
         }
@@ -457,7 +452,7 @@ impl<'a> Solver<'a> {
         ready.clear();
         self.chains.take_nearer(r, &mut ready);
         if !ready.is_empty() {
-            if self.skip_hidden {
+            if self.horizon.skip_hidden {
                 // The horizon may have grown since a chain's bucket was
                 // swept: a bucket (or node) that it hides now holds no chain
                 // that could raise it (docs/DESIGN.md, "The bucket
@@ -676,7 +671,6 @@ struct Sweep<'s, 'a> {
     horizon: &'s Horizon,
     marks: &'s mut [Vec<NodeMark>; NODE_LEVELS],
     chains: &'s mut ChainQueue,
-    skip_hidden: bool,
 }
 
 impl Sweep<'_, '_> {
@@ -685,7 +679,7 @@ impl Sweep<'_, '_> {
     /// hidden stays hidden for the rest of the sample (the horizon only
     /// grows).
     fn node_hidden(&mut self, level: usize, x: usize, y: usize) -> bool {
-        if !self.skip_hidden {
+        if !self.horizon.skip_hidden {
             return false;
         }
         let nodes = self.index.bucket_nodes(level);
@@ -731,7 +725,8 @@ impl Sweep<'_, '_> {
         // raise it (the horizon only grows).
         let reach =
             index.bucket_chain_rect(bucket, bucket_stride(self.vc, &index.bucket_rect(bucket)));
-        if reach.is_empty() || (self.skip_hidden && self.horizon.hides_rect(v, eye, reach, height))
+        if reach.is_empty()
+            || (self.horizon.skip_hidden && self.horizon.hides_rect(v, eye, reach, height))
         {
             return;
         }
