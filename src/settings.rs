@@ -57,7 +57,8 @@ pub struct RawSettings {
 pub struct BakeNumbers {
     /// Erosion distance eps in metres; samples are at most 2 eps apart.
     pub eps: f64,
-    /// Cull-map pixel size k in metres, with k * sqrt(2) / 2 <= eps.
+    /// Cull-map pixel size k in metres, with k * sqrt(2) / 2 <= eps -
+    /// [`CELL_SLACK`].
     pub pixel: f64,
     /// Eye height h: cells are prisms from 0 to h.
     pub eye_height: f64,
@@ -164,10 +165,23 @@ impl std::ops::Deref for Settings {
     }
 }
 
-/// The largest pixel size allowed by eps: k * sqrt(2) / 2 <= eps, with a
-/// hair of margin for rounding.
+/// How much of eps the bake keeps back for the grid of cell corners: cell
+/// corners are put on the 1/256 m grid, each moving at most
+/// [`crate::pvs::mesh::SNAP_DISTANCE`], and a cell's set is made valid
+/// for every viewpoint within that distance of its triangle; both take
+/// one snap distance of eps (docs/METHOD.md, section 4).
+pub const CELL_SLACK: f64 = 2.0 * crate::pvs::mesh::SNAP_DISTANCE;
+
+/// The part of eps left for the samples and the pixels once
+/// [`CELL_SLACK`] is kept back.
+pub fn usable_eps(eps: f64) -> f64 {
+    eps - CELL_SLACK
+}
+
+/// The largest pixel size allowed by eps: k * sqrt(2) / 2 <= eps -
+/// [`CELL_SLACK`], with a hair of margin for rounding.
 pub fn default_pixel(eps: f64) -> f64 {
-    eps * std::f64::consts::SQRT_2 * (1.0 - 1e-9)
+    usable_eps(eps) * std::f64::consts::SQRT_2 * (1.0 - 1e-9)
 }
 
 impl Default for Settings {
@@ -222,17 +236,29 @@ impl Settings {
     /// Validate raw settings and fill the defaults.
     pub fn new(raw: RawSettings) -> Result<Settings> {
         let eps = positive("eps", raw.eps.unwrap_or(DEFAULT_EPS), MAX_EPS)?;
+        if eps <= 2.0 * CELL_SLACK {
+            return Err(Error::setting(
+                "eps",
+                format!(
+                    "must be more than {:.4} m, got {}: cell corners lie on a 1/256 m grid and the bake keeps \
+                     {:.4} m of eps for that",
+                    2.0 * CELL_SLACK,
+                    readable(eps),
+                    CELL_SLACK
+                ),
+            ));
+        }
         let pixel = match raw.pixel {
             Some(p) => positive("pixel", p, MAX_EPS)?,
             None => default_pixel(eps),
         };
-        if pixel * std::f64::consts::SQRT_2 / 2.0 > eps {
+        if pixel * std::f64::consts::SQRT_2 / 2.0 > usable_eps(eps) {
             return Err(Error::setting(
                 "pixel",
                 format!(
-                    "{pixel} is too large for eps {eps}: a pixel's centre must lie within eps of every point of \
-                     the pixel (pixel * sqrt(2) / 2 <= eps), or the cull map could hide a visible building; use a \
-                     pixel of {:.6} or less, or a larger eps",
+                    "{pixel} is too large for eps {eps}: a pixel's centre must lie within eps - {CELL_SLACK:.4} m \
+                     of every point of the pixel (pixel * sqrt(2) / 2 <= eps - {CELL_SLACK:.4}), or the cull map \
+                     could hide a visible building; use a pixel of {:.6} or less, or a larger eps",
                     default_pixel(eps)
                 ),
             ));
@@ -301,9 +327,10 @@ impl Settings {
         RawSettings::given(&self.numbers, self.region.clone())
     }
 
-    /// Largest spacing of samples along a cell edge: 2 eps.
+    /// Largest spacing of samples along a cell edge: 2 (eps -
+    /// [`CELL_SLACK`]).
     pub fn sample_spacing(&self) -> f64 {
-        2.0 * self.eps
+        2.0 * usable_eps(self.eps)
     }
 
     /// SHA-256 of the region's coordinates (little-endian f64 bits, exterior

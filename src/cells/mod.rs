@@ -23,6 +23,31 @@ use crate::model::{MultiPolygon, Polygon, multipolygon_area};
 
 pub use crate::settings::{DEFAULT_MARGIN, DEFAULT_MAX_CELL_EDGE, DEFAULT_MIN_GAP};
 
+/// The triangles with every corner moved to the nearest point of the
+/// 1/256 m grid the file stores (`crate::pvs::mesh::snap`), in the same
+/// order. Shared corners stay shared; a corner moves at most
+/// `SNAP_DISTANCE` (2.8 mm). A triangle may become thinner, flat or turned
+/// over; its set is still computed for the triangle as it now is, which is
+/// what the file holds and what a reader's point lookup tests
+/// (docs/METHOD.md, section 4, "Cell corners on a grid").
+fn on_grid(triangles: Vec<[DVec2; 3]>) -> Result<Vec<[DVec2; 3]>> {
+    triangles
+        .into_iter()
+        .map(|t| {
+            let mut out = [DVec2::ZERO; 3];
+            for (o, p) in out.iter_mut().zip(t) {
+                *o = crate::pvs::mesh::snap(p).ok_or_else(|| {
+                    crate::Error::scene(format!(
+                        "cells: corner ({}, {}) is too far from the origin for the 1/256 m grid",
+                        p.x, p.y
+                    ))
+                })?;
+            }
+            Ok(out)
+        })
+        .collect()
+}
+
 /// How to cut free space into cells.
 #[derive(Clone, Debug)]
 pub struct CellParams {
@@ -48,10 +73,13 @@ impl Default for CellParams {
     }
 }
 
-/// The view cells: triangles covering free space exactly.
+/// The view cells: triangles covering free space, their corners on the
+/// 1/256 m grid (so up to 2.8 mm off the free space's outline).
 #[derive(Clone, Debug)]
 pub struct Cells {
-    /// Counter-clockwise triangles in local metres, in a deterministic order.
+    /// Triangles in local metres, corners on the 1/256 m grid, in a
+    /// deterministic order; counter-clockwise before the corners were put
+    /// on the grid (a sliver may have turned over).
     pub triangles: Vec<[DVec2; 3]>,
     /// The region of interest that was triangulated.
     pub region: Polygon,
@@ -96,7 +124,7 @@ pub fn triangulate(blocks: &[Block], params: &CellParams) -> Result<Cells> {
             "cells: no free space is left in the region once the footprints are removed",
         ));
     }
-    let triangles = mesh::triangulate_free_space(&free, params.max_edge)?;
+    let triangles = on_grid(mesh::triangulate_free_space(&free, params.max_edge)?)?;
     Ok(Cells {
         triangles,
         region,

@@ -81,7 +81,7 @@ pub struct ViewArgs {
     /// Eye height in metres: view cells are prisms from the ground to this height [default: 1.7].
     #[arg(long, value_name = "METRES")]
     pub eye_height: Option<f64>,
-    /// Cull-map pixel size in metres [default: eps * sqrt(2), the largest with pixel * sqrt(2) / 2 <= eps].
+    /// Cull-map pixel size in metres [default: (eps - 0.0055) * sqrt(2), the largest with pixel * sqrt(2) / 2 <= eps - 0.0055].
     #[arg(long, value_name = "METRES")]
     pub pixel: Option<f64>,
     /// Half-size in metres of the near-field cull map drawn around each sample [default: 48].

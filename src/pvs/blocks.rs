@@ -13,6 +13,16 @@ use super::rc::{BitCoder, Decoder, Encoder, PROB_INIT, PastEnd, Prob};
 /// Coding names for reports, index = how many references the cell used.
 pub const CODING_NAMES: [&str; 3] = ["whole", "one-reference", "two-references"];
 
+/// Most bits of a reference (blocks of at most 1024 cells).
+const MAX_REF_BITS: u32 = 10;
+
+/// Bits of a reference in blocks of `block_cells` cells: the bit length of
+/// `block_cells - 1` (at least 1), so any earlier cell of the block can be
+/// named (docs/FORMAT.md, "Blocks").
+pub fn ref_bits(block_cells: u32) -> u32 {
+    (32 - block_cells.saturating_sub(1).leading_zeros()).clamp(1, MAX_REF_BITS)
+}
+
 /// Ranks per word of a set's bitset.
 const WORD: usize = 64;
 /// What a cell difference at one rank costs in the writer's choice of the
@@ -47,9 +57,10 @@ pub fn read_varint(bytes: &[u8], pos: &mut usize) -> Result<u64, String> {
 /// The adaptive probabilities of one block (docs/FORMAT.md, "Blocks").
 #[derive(Clone)]
 struct Models {
-    /// Bit trees (8 bits) of the first and the second reference.
-    back_a: [Prob; 256],
-    back_b: [Prob; 256],
+    /// Bit trees of the first and the second reference (`ref_bits` bits,
+    /// at most 10).
+    back_a: [Prob; 1 << MAX_REF_BITS],
+    back_b: [Prob; 1 << MAX_REF_BITS],
     /// "The word differs from the first reference's", context: references'
     /// words equal (1), previous word differed (2), first reference's word
     /// zero (4), every earlier cell of the block has the first reference's
@@ -66,8 +77,8 @@ struct Models {
 impl Models {
     fn new() -> Self {
         Models {
-            back_a: [PROB_INIT; 256],
-            back_b: [PROB_INIT; 256],
+            back_a: [PROB_INIT; 1 << MAX_REF_BITS],
+            back_b: [PROB_INIT; 1 << MAX_REF_BITS],
             word: [PROB_INIT; 16],
             rank: [PROB_INIT; 64],
         }
@@ -177,6 +188,9 @@ impl Seen {
 /// then [`BlockEncoder::finish`].
 pub struct BlockEncoder {
     n: usize,
+    /// Cells per block, and the bits of a reference.
+    block_cells: usize,
+    ref_bits: u32,
     words: usize,
     /// Bitsets of the block's cells so far, `words` each.
     rows: Vec<u64>,
@@ -188,11 +202,14 @@ pub struct BlockEncoder {
 }
 
 impl BlockEncoder {
-    /// An encoder for sets of ranks below `n`.
-    pub fn new(n: u32) -> Self {
+    /// An encoder for sets of ranks below `n` in blocks of `block_cells`
+    /// cells (1 to 1024).
+    pub fn new(n: u32, block_cells: u32) -> Self {
         let words = (n as usize).div_ceil(WORD);
         BlockEncoder {
             n: n as usize,
+            block_cells: block_cells as usize,
+            ref_bits: ref_bits(block_cells),
             words,
             rows: Vec::new(),
             cells: 0,
@@ -215,11 +232,11 @@ impl BlockEncoder {
         &self.rows[k * self.words..(k + 1) * self.words]
     }
 
-    /// Code the next cell's set, ascending ranks below `n` (at most 256
-    /// cells per block). Returns how many references it used.
+    /// Code the next cell's set, ascending ranks below `n` (at most
+    /// `block_cells` cells per block). Returns how many references it used.
     pub fn push(&mut self, ranks: &[u32]) -> u8 {
         let (w, k) = (self.words, self.cells);
-        assert!(k < 256, "at most 256 cells per block");
+        assert!(k < self.block_cells, "at most {} cells per block", self.block_cells);
         let at = k * w;
         self.rows.resize(at + w, 0);
         for &r in ranks {
@@ -264,9 +281,9 @@ impl BlockEncoder {
         }
         let m = &mut self.models;
         if k >= 1 {
-            let _ = self.rc.code_tree(&mut m.back_a, 8, a as u32);
+            let _ = self.rc.code_tree(&mut m.back_a, self.ref_bits, a as u32);
             if a > 0 && k >= 2 {
-                let _ = self.rc.code_tree(&mut m.back_b, 8, b as u32);
+                let _ = self.rc.code_tree(&mut m.back_b, self.ref_bits, b as u32);
             }
         }
         let (ra, rb, row) = reference_rows(&mut self.rows, &self.zero, w, k, a, b);
@@ -320,6 +337,8 @@ fn hamming(a: &[u64], b: &[u64]) -> u32 {
 /// per cell of the block, whatever the bytes say.
 pub struct BlockDecoder<'a> {
     n: usize,
+    block_cells: usize,
+    ref_bits: u32,
     words: usize,
     rows: Vec<u64>,
     cells: usize,
@@ -334,11 +353,14 @@ fn past_end(_: PastEnd) -> String {
 }
 
 impl<'a> BlockDecoder<'a> {
-    /// Start decoding a block of sets of ranks below `n`.
-    pub fn new(bytes: &'a [u8], n: u32) -> Result<Self, String> {
+    /// Start decoding a block of sets of ranks below `n`, in blocks of
+    /// `block_cells` cells (1 to 1024).
+    pub fn new(bytes: &'a [u8], n: u32, block_cells: u32) -> Result<Self, String> {
         let words = (n as usize).div_ceil(WORD);
         Ok(BlockDecoder {
             n: n as usize,
+            block_cells: block_cells as usize,
+            ref_bits: ref_bits(block_cells),
             words,
             rows: Vec::new(),
             cells: 0,
@@ -354,24 +376,24 @@ impl<'a> BlockDecoder<'a> {
         self.rc.pos()
     }
 
-    /// Decode the next cell (at most 256 per block): its ascending ranks go
-    /// to `set`; returns how many references it used.
+    /// Decode the next cell (at most `block_cells` per block): its
+    /// ascending ranks go to `set`; returns how many references it used.
     pub fn next(&mut self, set: &mut Vec<u32>) -> Result<u8, String> {
         let (w, k) = (self.words, self.cells);
-        if k >= 256 {
-            return Err("more than 256 cells in a block".into());
+        if k >= self.block_cells {
+            return Err(format!("more than {} cells in a block", self.block_cells));
         }
         let m = &mut self.models;
         let (mut a, mut b) = (0usize, 0usize);
         if k >= 1 {
-            a = self.rc.tree(&mut m.back_a, 8).map_err(past_end)? as usize;
+            a = self.rc.tree(&mut m.back_a, self.ref_bits).map_err(past_end)? as usize;
             if a > k {
                 return Err(format!(
                     "a cell refers {a} cells back, but {k} cells precede it in its block"
                 ));
             }
             if a > 0 && k >= 2 {
-                b = self.rc.tree(&mut m.back_b, 8).map_err(past_end)? as usize;
+                b = self.rc.tree(&mut m.back_b, self.ref_bits).map_err(past_end)? as usize;
                 if b > k {
                     return Err(format!(
                         "a cell refers {b} cells back, but {k} cells precede it in its block"
@@ -435,7 +457,7 @@ mod tests {
 
     #[test]
     fn references_are_chosen_and_identical_sets_cost_little() {
-        let mut e = BlockEncoder::new(300);
+        let mut e = BlockEncoder::new(300, 256);
         let base: Vec<u32> = (0..300).filter(|r| r % 3 == 0).collect();
         assert_eq!(e.push(&base), 0);
         let mut other = base.clone();
@@ -448,7 +470,7 @@ mod tests {
         let bytes = e.finish();
         // A hundred copies of an earlier set: well under a byte each.
         assert!(bytes.len() < one + 5 + 60, "{} bytes", bytes.len());
-        let mut d = BlockDecoder::new(&bytes, 300).unwrap();
+        let mut d = BlockDecoder::new(&bytes, 300, 256).unwrap();
         let mut set = Vec::new();
         d.next(&mut set).unwrap();
         assert_eq!(set, base);
@@ -470,13 +492,13 @@ mod tests {
                 s.dedup();
                 s
             }).collect();
-            let mut e = BlockEncoder::new(n);
+            let mut e = BlockEncoder::new(n, 256);
             for round in 0..2 {
                 for s in &sets {
                     e.push(s);
                 }
                 let bytes = e.finish();
-                let mut d = BlockDecoder::new(&bytes, n).unwrap();
+                let mut d = BlockDecoder::new(&bytes, n, 256).unwrap();
                 let mut set = Vec::new();
                 for s in &sets {
                     d.next(&mut set).unwrap();
@@ -488,7 +510,7 @@ mod tests {
 
         #[test]
         fn arbitrary_bytes_never_panic(n in 0u32..300, bytes in proptest::collection::vec(any::<u8>(), 0..60)) {
-            if let Ok(mut d) = BlockDecoder::new(&bytes, n) {
+            if let Ok(mut d) = BlockDecoder::new(&bytes, n, 256) {
                 let mut set = Vec::new();
                 for _ in 0..300 {
                     if d.next(&mut set).is_err() {

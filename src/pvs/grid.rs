@@ -1,10 +1,12 @@
 //! A uniform grid over the cell triangles, built when a file is opened, that
 //! answers "which cell holds this point" by testing only the triangles whose
-//! bounding boxes overlap the point's grid square.
+//! bounding boxes overlap the point's grid square, and for a point in none
+//! of them, which cell within the corners' snap distance is nearest.
 
 use glam::DVec2;
 
 use crate::grid::{CellLists, Key, UniformGrid};
+use crate::model::Rect;
 
 /// Grid squares list the triangles whose bounding box overlaps them.
 pub struct CellGrid {
@@ -27,6 +29,27 @@ pub fn triangle_contains(t: &[DVec2; 3], p: DVec2) -> bool {
     }
     let s = area.signum();
     (0..3).all(|k| cross(t[k], t[(k + 1) % 3], p) * s >= 0.0)
+}
+
+/// Distance from `p` to the triangle (0 inside or on it; a flat triangle
+/// is its edges).
+pub fn distance_to_triangle(t: &[DVec2; 3], p: DVec2) -> f64 {
+    if triangle_contains(t, p) {
+        return 0.0;
+    }
+    (0..3)
+        .map(|k| {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            let ab = b - a;
+            let len2 = ab.length_squared();
+            let s = if len2 > 0.0 {
+                ((p - a).dot(ab) / len2).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            p.distance(a + ab * s)
+        })
+        .fold(f64::INFINITY, f64::min)
 }
 
 /// The key range of a triangle's bounding box.
@@ -89,16 +112,38 @@ impl CellGrid {
         }
     }
 
-    /// The lowest-numbered cell containing `p`, if any.
-    pub fn find(&self, p: DVec2, tri: impl Fn(usize) -> [DVec2; 3]) -> Option<usize> {
+    /// The lowest-numbered cell containing `p`; if none does, the nearest
+    /// cell within `reach` of `p` (ties: the lowest-numbered), if any.
+    pub fn find(&self, p: DVec2, reach: f64, tri: impl Fn(usize) -> [DVec2; 3]) -> Option<usize> {
         let (min, max) = self.bounds?;
-        if !p.is_finite() || p.x < min.x || p.y < min.y || p.x > max.x || p.y > max.y {
+        let outside = |d: f64| p.x < min.x - d || p.y < min.y - d || p.x > max.x + d || p.y > max.y + d;
+        if !p.is_finite() || outside(reach) {
             return None;
         }
-        self.lists
-            .get(self.grid.index(self.grid.key(p)))
-            .iter()
-            .map(|&c| c as usize)
-            .find(|&c| triangle_contains(&tri(c), p))
+        if !outside(0.0) {
+            let inside = self
+                .lists
+                .get(self.grid.index(self.grid.key(p)))
+                .iter()
+                .map(|&c| c as usize)
+                .find(|&c| triangle_contains(&tri(c), p));
+            if inside.is_some() {
+                return inside;
+            }
+        }
+        let near = Rect {
+            min: p - DVec2::splat(reach),
+            max: p + DVec2::splat(reach),
+        };
+        let mut best: Option<(f64, usize)> = None;
+        self.grid.for_each_in_rect(&near, |square| {
+            for &c in self.lists.get(square) {
+                let d = distance_to_triangle(&tri(c as usize), p);
+                if d <= reach && best.is_none_or(|(bd, bc)| d < bd || (d == bd && (c as usize) < bc)) {
+                    best = Some((d, c as usize));
+                }
+            }
+        });
+        best.map(|(_, c)| c)
     }
 }

@@ -115,14 +115,17 @@ pub struct WriteStats {
 /// The first eight bytes of every `.pvs` file.
 pub const MAGIC: [u8; 8] = *b"CITYPVS\0";
 /// The layout version this code writes and reads.
-pub const FORMAT_VERSION: u32 = 2;
+pub const FORMAT_VERSION: u32 = 3;
 /// Length of the fixed-size header in bytes.
 pub const HEADER_BYTES: usize = 232;
 /// Cells per block as the writer makes them (the reader accepts 1 to
 /// [`MAX_BLOCK_CELLS`]).
-pub const BLOCK_CELLS: u32 = 128;
+pub const BLOCK_CELLS: u32 = 512;
+/// An object id is at most this many times as long as its entry in the
+/// objects section (so a small file cannot claim huge ids).
+pub const ID_EXPANSION: usize = 16;
 /// The largest block a reader accepts.
-pub const MAX_BLOCK_CELLS: u32 = 256;
+pub const MAX_BLOCK_CELLS: u32 = 1024;
 /// The sections after the header, in file order.
 pub const SECTION_NAMES: [&str; 6] = [
     "strings",

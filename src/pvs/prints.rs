@@ -15,6 +15,8 @@ use crate::error::{Error, Result};
 use crate::model::MultiPolygon;
 use crate::model::Rect;
 
+use super::rc::{Decoder, Encoder, NumberModel, PROB_INIT, Prob};
+
 /// One object's entry.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "bake", derive(bincode::Encode, bincode::Decode))]
@@ -40,7 +42,7 @@ impl ObjectPrint {
     }
 }
 
-/// Bytes of one entry in the file.
+/// Bytes of one entry in memory (the file codes it in about 16).
 pub const PRINT_BYTES: usize = 48;
 
 #[cfg(feature = "bake")]
@@ -79,11 +81,24 @@ pub fn object_prints(scene: &crate::prepare::Scene) -> Vec<ObjectPrint> {
         h.update(occ.height.to_bits().to_le_bytes());
         hash_polygons(h, &occ.shape);
     }
+    let object_of = |b: &crate::model::Building| {
+        let mut h = Sha256::new();
+        h.update(b.height.to_bits().to_le_bytes());
+        h.update([u8::from(b.occludes)]);
+        hash_polygons(&mut h, &b.footprint);
+        finish(h)
+    };
     let mut of_object = vec![0u64; buildings.len()];
     for (block, h) in scene.blocks.iter().zip(block_hash) {
         let mut h = h;
         h.update((block.members.len() as u64).to_le_bytes());
-        let value = finish(h).max(1);
+        // A block of one member: its levels are a function of that
+        // member's own data, so its fingerprint is the member's.
+        let value = match block.members.as_slice() {
+            &[m] if m < buildings.len() => object_of(&buildings[m]),
+            _ => finish(h),
+        }
+        .max(1);
         for &m in &block.members {
             of_object[m] = value;
         }
@@ -92,10 +107,6 @@ pub fn object_prints(scene: &crate::prepare::Scene) -> Vec<ObjectPrint> {
         .iter()
         .zip(of_object)
         .map(|(b, block)| {
-            let mut h = Sha256::new();
-            h.update(b.height.to_bits().to_le_bytes());
-            h.update([u8::from(b.occludes)]);
-            hash_polygons(&mut h, &b.footprint);
             let mut rect = Rect::EMPTY;
             for p in &b.footprint {
                 for v in &p.exterior {
@@ -103,7 +114,7 @@ pub fn object_prints(scene: &crate::prepare::Scene) -> Vec<ObjectPrint> {
                 }
             }
             ObjectPrint {
-                object: finish(h),
+                object: object_of(b),
                 block,
                 rect: [rect.min.x, rect.min.y, rect.max.x, rect.max.y],
             }
@@ -111,78 +122,161 @@ pub fn object_prints(scene: &crate::prepare::Scene) -> Vec<ObjectPrint> {
         .collect()
 }
 
-/// Append the list: a varint count (0 = no list, else the object count)
-/// and the entries.
-pub fn write_prints(out: &mut Vec<u8>, prints: &[ObjectPrint]) {
-    let mut n = prints.len() as u64;
-    while n >= 0x80 {
-        out.push((n as u8 & 0x7f) | 0x80);
-        n >>= 7;
-    }
-    out.push(n as u8);
-    for p in prints {
-        out.extend_from_slice(&p.object.to_le_bytes());
-        out.extend_from_slice(&p.block.to_le_bytes());
-        for v in p.rect {
-            out.extend_from_slice(&v.to_le_bytes());
+/// Grid numbers (1/256 m) of a rectangle, rounded outwards.
+fn rect_numbers(rect: &[f64; 4]) -> [i64; 4] {
+    let g = |v: f64, up: bool| {
+        let s = v * 256.0;
+        (if up { s.ceil() } else { s.floor() }) as i64
+    };
+    [g(rect[0], false), g(rect[1], false), g(rect[2], true), g(rect[3], true)]
+}
+
+/// The rectangle a file stores for `rect`: the footprint's rectangle
+/// rounded outwards to the 1/256 m grid (so it still holds the footprint).
+pub fn stored_rect(rect: &[f64; 4]) -> [f64; 4] {
+    rect_numbers(rect).map(|v| v as f64 / 256.0)
+}
+
+/// Largest grid number of a stored rectangle's side: 2^52.
+const MAX_RECT_NUMBER: i64 = 1 << 52;
+
+/// The models of the list's stream (docs/FORMAT.md, "Objects").
+struct PrintModels {
+    kind: [Prob; 4],
+    corner: [NumberModel; 2],
+    size: [NumberModel; 2],
+}
+
+impl PrintModels {
+    fn new() -> Self {
+        PrintModels {
+            kind: [PROB_INIT; 4],
+            corner: [NumberModel::default(), NumberModel::default()],
+            size: [NumberModel::default(), NumberModel::default()],
         }
     }
 }
 
+fn zigzag(d: i64) -> u64 {
+    ((d << 1) ^ (d >> 63)) as u64
+}
+
+fn unzigzag(z: u64) -> i64 {
+    ((z >> 1) ^ (z & 1).wrapping_neg()) as i64
+}
+
+/// Append the list: a varint count (0 = no list, else the object count)
+/// and, for a list, one range-coded stream of the entries in spatial rank
+/// order (`input_of_rank`), running to the end of the section. Each
+/// rectangle is stored rounded outwards to the 1/256 m grid.
+pub fn write_prints(out: &mut Vec<u8>, prints: &[ObjectPrint], input_of_rank: &[u32]) {
+    super::codec::write_leb128(out, prints.len() as u64);
+    if prints.is_empty() {
+        return;
+    }
+    let mut rc = Encoder::new();
+    let mut m = PrintModels::new();
+    let mut previous_block = 0u64;
+    let mut previous_corner = [0i64; 2];
+    for &i in input_of_rank {
+        let p = &prints[i as usize];
+        rc.plain(p.object, 64);
+        let kind = if p.block == 0 {
+            0
+        } else if p.block == p.object {
+            1
+        } else if p.block == previous_block {
+            2
+        } else {
+            3
+        };
+        rc.tree(&mut m.kind, 2, kind);
+        if kind == 3 {
+            rc.plain(p.block, 64);
+        }
+        previous_block = p.block;
+        let r = rect_numbers(&p.rect);
+        for k in 0..2 {
+            rc.number(&mut m.corner[k], zigzag(r[k] - previous_corner[k]));
+            rc.number(&mut m.size[k], (r[k + 2] - r[k]) as u64);
+            previous_corner[k] = r[k];
+        }
+    }
+    out.extend_from_slice(&rc.finish());
+}
+
 /// Read the list from `bytes` (what follows the spatial numbering up to the
-/// end of the objects section) for `objects` objects. An empty rest is a
-/// file without the list.
-pub fn read_prints(bytes: &[u8], objects: usize) -> Result<Vec<ObjectPrint>> {
+/// end of the objects section) for `objects` objects numbered by
+/// `input_of_rank`. An empty rest is a file without the list.
+pub fn read_prints(bytes: &[u8], objects: usize, input_of_rank: &[u32]) -> Result<Vec<ObjectPrint>> {
     if bytes.is_empty() {
         return Ok(Vec::new());
     }
     let mut at = 0;
-    let mut count = 0u64;
-    loop {
-        let Some(&b) = bytes.get(at) else {
-            return Err(Error::format(
-                "objects section: the fingerprint count is cut short",
-            ));
-        };
-        if at >= 5 {
-            return Err(Error::format(
-                "objects section: the fingerprint count is too long",
-            ));
+    let count = super::blocks::read_varint(bytes, &mut at)
+        .map_err(|e| Error::format(format!("objects section: the fingerprint count: {e}")))?;
+    if count == 0 {
+        if at != bytes.len() {
+            return Err(Error::format(format!(
+                "objects section: {} bytes after a fingerprint count of 0",
+                bytes.len() - at
+            )));
         }
-        count |= u64::from(b & 0x7f) << (7 * at);
-        at += 1;
-        if b & 0x80 == 0 {
-            break;
-        }
+        return Ok(Vec::new());
     }
-    if count != 0 && count != objects as u64 {
+    if count != objects as u64 {
         return Err(Error::format(format!(
             "objects section: {count} object fingerprints for {objects} objects"
         )));
     }
-    let rest = &bytes[at..];
-    if rest.len() as u64 != count * PRINT_BYTES as u64 {
-        return Err(Error::format(format!(
-            "objects section: {} bytes after the fingerprint count, {count} fingerprints take {}",
-            rest.len(),
-            count * PRINT_BYTES as u64
-        )));
-    }
-    let word = |k: usize| u64::from_le_bytes(rest[8 * k..8 * k + 8].try_into().expect("8 bytes"));
-    let mut out = Vec::with_capacity(count as usize);
-    for i in 0..count as usize {
-        let w = 6 * i;
-        let rect = [2, 3, 4, 5].map(|k| f64::from_bits(word(w + k)));
-        if !rect.iter().all(|v| v.is_finite()) {
-            return Err(Error::format(format!(
-                "objects section: the fingerprint of object {i} has a non-finite rectangle"
-            )));
+    let past = |_| Error::format("objects section: the fingerprints' coding runs past its end");
+    let mut rc = Decoder::new(&bytes[at..]).map_err(|e| Error::format(format!("objects section: {e}")))?;
+    let mut m = PrintModels::new();
+    let mut out = vec![
+        ObjectPrint {
+            object: 0,
+            block: 0,
+            rect: [0.0; 4],
+        };
+        objects
+    ];
+    let mut previous_block = 0u64;
+    let mut previous_corner = [0i64; 2];
+    for (r, &i) in input_of_rank.iter().enumerate() {
+        let object = rc.plain(64).map_err(past)?;
+        let block = match rc.tree(&mut m.kind, 2).map_err(past)? {
+            0 => 0,
+            1 => object,
+            2 => previous_block,
+            _ => rc.plain(64).map_err(past)?,
+        };
+        previous_block = block;
+        let mut rect = [0.0; 4];
+        for k in 0..2 {
+            let bad = || Error::format(format!("objects section: the rectangle of rank {r} is out of range"));
+            let z = rc.number(&mut m.corner[k]).map_err(past)?.ok_or_else(bad)?;
+            let lo = previous_corner[k]
+                .checked_add(unzigzag(z))
+                .filter(|v| v.abs() <= MAX_RECT_NUMBER)
+                .ok_or_else(bad)?;
+            let size = rc.number(&mut m.size[k]).map_err(past)?.ok_or_else(bad)?;
+            let hi = i64::try_from(size)
+                .ok()
+                .and_then(|s| lo.checked_add(s))
+                .filter(|v| v.abs() <= MAX_RECT_NUMBER)
+                .ok_or_else(bad)?;
+            previous_corner[k] = lo;
+            rect[k] = lo as f64 / 256.0;
+            rect[k + 2] = hi as f64 / 256.0;
         }
-        out.push(ObjectPrint {
-            object: word(w),
-            block: word(w + 1),
-            rect,
-        });
+        out[i as usize] = ObjectPrint { object, block, rect };
+    }
+    let end = at + rc.pos();
+    if end != bytes.len() {
+        return Err(Error::format(format!(
+            "objects section: {} bytes after the fingerprints' coding",
+            bytes.len() - end
+        )));
     }
     Ok(out)
 }

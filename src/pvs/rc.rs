@@ -7,22 +7,59 @@
 
 /// Probabilities are of a 0 bit, in units of 1/65536.
 pub const PROB_BITS: u32 = 16;
-/// Initial probability: one half.
-pub const PROB_INIT: u16 = 1 << (PROB_BITS - 1);
-/// Adaptation rate: a probability moves 1/32 of the way to the bit seen.
-const MOVE_BITS: u32 = 5;
+/// The two estimates move 1/32 and 1/128 of the way to each bit seen, and
+/// faster while the probability is young (see [`Prob`]).
+const FAST_BITS: u32 = 5;
+const SLOW_BITS: u32 = 7;
+/// Every estimate stays in `PROB_MIN ..= PROB_MAX`.
+const PROB_MIN: u16 = 31;
+const PROB_MAX: u16 = 65505;
 const TOP: u32 = 1 << 24;
 
-/// An adaptive probability of a 0 bit.
-pub type Prob = u16;
+/// An adaptive probability of a 0 bit: the mean of a fast and a slow
+/// estimate, each moved by 1/2^s of its distance to the bit seen, where s
+/// is the smaller of its rate (5 or 7) and the bit length of (bits seen so
+/// far + 1), so a young probability learns quickly (docs/FORMAT.md, "Range
+/// coder").
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Prob {
+    fast: u16,
+    slow: u16,
+    seen: u8,
+}
+
+/// A probability that has seen nothing: one half.
+pub const PROB_INIT: Prob = Prob {
+    fast: 1 << (PROB_BITS - 1),
+    slow: 1 << (PROB_BITS - 1),
+    seen: 0,
+};
+
+impl Prob {
+    /// The chance of a 0 bit, in 1/65536 (31 to 65505).
+    #[inline]
+    pub fn value(self) -> u32 {
+        (u32::from(self.fast) + u32::from(self.slow)) >> 1
+    }
+}
+
+#[inline]
+fn moved(p: u16, bit: u32, shift: u32) -> u16 {
+    let p = u32::from(p);
+    let q = if bit == 0 {
+        p + (((1u32 << PROB_BITS) - p) >> shift)
+    } else {
+        p - (p >> shift)
+    };
+    (q as u16).clamp(PROB_MIN, PROB_MAX)
+}
 
 #[inline]
 fn update(p: &mut Prob, bit: u32) {
-    if bit == 0 {
-        *p += (((1u32 << PROB_BITS) - u32::from(*p)) >> MOVE_BITS) as u16;
-    } else {
-        *p -= *p >> MOVE_BITS;
-    }
+    p.seen = p.seen.saturating_add(1);
+    let young = 32 - (u32::from(p.seen) + 1).leading_zeros();
+    p.fast = moved(p.fast, bit, young.min(FAST_BITS));
+    p.slow = moved(p.slow, bit, young.min(SLOW_BITS));
 }
 
 /// Range encoder writing into a byte vector.
@@ -72,7 +109,7 @@ impl Encoder {
     /// Code `bit` (0 or 1) with the adaptive probability `p`.
     #[inline]
     pub fn bit(&mut self, p: &mut Prob, bit: u32) {
-        let bound = (self.range >> PROB_BITS) * u32::from(*p);
+        let bound = (self.range >> PROB_BITS) * p.value();
         if bit == 0 {
             self.range = bound;
         } else {
@@ -204,7 +241,7 @@ impl<'a> Decoder<'a> {
     /// Decode a bit with the adaptive probability `p`.
     #[inline]
     pub fn bit(&mut self, p: &mut Prob) -> Result<u32, PastEnd> {
-        let bound = (self.range >> PROB_BITS) * u32::from(*p);
+        let bound = (self.range >> PROB_BITS) * p.value();
         let bit = if self.code < bound {
             self.range = bound;
             0
@@ -269,6 +306,8 @@ pub trait BitCoder {
         }
         Ok((m - (1 << bits)) as u32)
     }
+    /// A number with its model (`None` when decoding a bit length over 64).
+    fn number_of(&mut self, model: &mut NumberModel, value: u64) -> Result<Option<u64>, PastEnd>;
 }
 
 impl BitCoder for Encoder {
@@ -277,12 +316,19 @@ impl BitCoder for Encoder {
         self.bit(p, bit);
         Ok(bit)
     }
+    fn number_of(&mut self, model: &mut NumberModel, value: u64) -> Result<Option<u64>, PastEnd> {
+        self.number(model, value);
+        Ok(Some(value))
+    }
 }
 
 impl BitCoder for Decoder<'_> {
     #[inline]
     fn code(&mut self, p: &mut Prob, _: u32) -> Result<u32, PastEnd> {
         self.bit(p)
+    }
+    fn number_of(&mut self, model: &mut NumberModel, _: u64) -> Result<Option<u64>, PastEnd> {
+        self.number(model)
     }
 }
 
@@ -299,7 +345,8 @@ mod tests {
         let mut e = Encoder::new();
         let mut p = PROB_INIT;
         e.bit(&mut p, 1);
-        assert_eq!(p, PROB_INIT - (PROB_INIT >> 5));
+        // Seen one bit: both estimates move by 1/4 (bit length of 2).
+        assert_eq!(p.value(), 24576);
         assert_eq!(e.finish(), [0, 0x7f, 0xff, 0x80, 0x00]);
     }
 
@@ -309,11 +356,20 @@ mod tests {
         for _ in 0..10_000 {
             update(&mut p, 0);
         }
-        assert_eq!(p, 65505);
+        assert_eq!(p.value(), 65505);
         for _ in 0..10_000 {
             update(&mut p, 1);
         }
-        assert_eq!(p, 31);
+        assert_eq!(p.value(), 31);
+        // The rates settle at 1/32 and 1/128 once 127 bits were seen.
+        let mut q = PROB_INIT;
+        for _ in 0..300 {
+            update(&mut q, 0);
+        }
+        let before = q;
+        update(&mut q, 1);
+        assert_eq!(q.fast, before.fast - (before.fast >> 5));
+        assert_eq!(q.slow, before.slow - (before.slow >> 7));
     }
 
     proptest! {

@@ -1,4 +1,4 @@
-//! Reading and validating a version 2 `.pvs` file (docs/FORMAT.md). At open:
+//! Reading and validating a version 3 `.pvs` file (docs/FORMAT.md). At open:
 //! the header (every number checked once), the section lengths, the object
 //! table, the vertex table, the triangles and the block index, each parsed
 //! within the bytes of its own section, so no count taken from the file can
@@ -111,10 +111,10 @@ impl PvsReader {
         let mut h = Cursor::new(&bytes, "header");
         h.take(MAGIC.len(), "magic")?;
         let version = h.u32("version")?;
-        if version == 1 {
-            return Err(Error::format(
-                "version 1 file: rebake with this citypvs (it reads .pvs version 2 only)",
-            ));
+        if version == 1 || version == 2 {
+            return Err(Error::format(format!(
+                "version {version} file: rebake with this citypvs (it reads .pvs version {FORMAT_VERSION} only)"
+            )));
         }
         if version != FORMAT_VERSION {
             return Err(Error::format(format!(
@@ -187,9 +187,14 @@ impl PvsReader {
             .collect()
     }
     /// The cell containing the point (local metres), if any. A point on an
-    /// edge shared by two cells goes to the lower-numbered one.
+    /// edge shared by two cells goes to the lower-numbered one. A point in
+    /// no cell but within [`super::mesh::SNAP_DISTANCE`] (2.8 mm) of one,
+    /// which the grid of cell corners leaves along the free space's
+    /// outline, goes to the nearest (each cell's set holds that far beyond
+    /// it).
     pub fn cell_at(&self, p: DVec2) -> Option<usize> {
-        self.grid.find(p, |c| self.cell_triangle(c))
+        self.grid
+            .find(p, super::mesh::SNAP_DISTANCE, |c| self.cell_triangle(c))
     }
     /// Length of the whole file in bytes.
     pub fn file_bytes(&self) -> u64 {
@@ -254,7 +259,7 @@ impl PvsReader {
         let bytes = self.block(b);
         let n = self.parsed.object_ids.len() as u32;
         let first = b * self.parsed.block_cells;
-        let mut state = BlockDecoder::new(bytes, n)
+        let mut state = BlockDecoder::new(bytes, n, self.parsed.block_cells as u32)
             .map_err(|e| Error::format(format!("visible set of cell {first}: {e}")))?;
         let mut set = Vec::new();
         for k in 0..=last {
@@ -445,9 +450,33 @@ fn parse(body: &[u8]) -> Result<Parsed> {
             o.left()
         )));
     }
-    let mut object_ids = Vec::with_capacity(n);
+    let mut object_ids: Vec<String> = Vec::with_capacity(n);
     for k in 0..n {
-        object_ids.push(o.string(&format!("id of object {k}"))?.to_string());
+        let entry_start = o.pos;
+        let shared = o.varint(&format!("shared bytes of the id of object {k}"))?;
+        let rest = o.string(&format!("id of object {k}"))?;
+        let previous = object_ids.last().map_or("", String::as_str);
+        let shared = usize::try_from(shared)
+            .ok()
+            .filter(|&s| s <= previous.len() && previous.is_char_boundary(s))
+            .ok_or_else(|| {
+                Error::format(format!(
+                    "the id of object {k} shares {shared} bytes with the previous id of {} bytes",
+                    previous.len()
+                ))
+            })?;
+        let entry = o.pos - entry_start;
+        if shared + rest.len() > super::ID_EXPANSION * entry {
+            return Err(Error::format(format!(
+                "the id of object {k} is {} bytes from an entry of {entry} (at most {} times as many allowed)",
+                shared + rest.len(),
+                super::ID_EXPANSION
+            )));
+        }
+        let mut id = String::with_capacity(shared + rest.len());
+        id.push_str(&previous[..shared]);
+        id.push_str(rest);
+        object_ids.push(id);
     }
     let mut input_of_rank = Vec::with_capacity(n);
     let mut seen = vec![false; n];
@@ -462,7 +491,7 @@ fn parse(body: &[u8]) -> Result<Parsed> {
         input_of_rank.push(i as u32);
     }
     let rest = o.take(o.left(), "object fingerprints")?;
-    let object_prints = super::prints::read_prints(rest, n)?;
+    let object_prints = super::prints::read_prints(rest, n, &input_of_rank)?;
 
     // Vertices and triangles: range coded, each section at least
     // VERTEX_MIN_BYTES per vertex and CELL_MIN_BYTES per cell.

@@ -82,22 +82,30 @@ fn patch_u64(out: &mut [u8], at: usize, v: u64) {
     out[at..at + 8].copy_from_slice(&v.to_le_bytes());
 }
 
-/// Interleave the bits of two 16-bit numbers (x in the even bits).
-fn morton(x: u32, y: u32) -> u32 {
-    fn spread(mut v: u32) -> u32 {
-        v &= 0xffff;
-        v = (v | (v << 8)) & 0x00ff_00ff;
-        v = (v | (v << 4)) & 0x0f0f_0f0f;
-        v = (v | (v << 2)) & 0x3333_3333;
-        v = (v | (v << 1)) & 0x5555_5555;
-        v
+/// Position along a Hilbert curve over a 65536 x 65536 grid.
+fn hilbert(mut x: u32, mut y: u32) -> u64 {
+    let mut d = 0u64;
+    let mut s = 1u32 << 15;
+    while s > 0 {
+        let rx = u32::from(x & s != 0);
+        let ry = u32::from(y & s != 0);
+        d += u64::from(s) * u64::from(s) * u64::from((3 * rx) ^ ry);
+        if ry == 0 {
+            if rx == 1 {
+                x = 0xffff - x;
+                y = 0xffff - y;
+            }
+            std::mem::swap(&mut x, &mut y);
+        }
+        s >>= 1;
     }
-    spread(x) | (spread(y) << 1)
+    d
 }
 
-/// The spatial numbering: objects sorted by the Morton code of their point
-/// on a 65536 x 65536 grid over the points' bounding box, ties by input
-/// index. Returns the input index of each rank.
+/// The spatial numbering: objects sorted by the Hilbert curve position of
+/// their point on a 65536 x 65536 grid over the square around the points'
+/// bounding box, ties by input index. Returns the input index of each
+/// rank.
 pub fn spatial_ranks(points: &[DVec2]) -> Vec<u32> {
     let mut lo = DVec2::splat(f64::INFINITY);
     let mut hi = DVec2::splat(f64::NEG_INFINITY);
@@ -105,15 +113,53 @@ pub fn spatial_ranks(points: &[DVec2]) -> Vec<u32> {
         lo = lo.min(*p);
         hi = hi.max(*p);
     }
-    let size = (hi - lo).max(DVec2::splat(1e-9));
-    let q = |v: f64, lo: f64, size: f64| (((v - lo) / size * 65535.0).round() as u32).min(65535);
-    let mut keyed: Vec<(u32, u32)> = points
+    let side = (hi - lo).max_element().max(1e-9);
+    let q = |v: f64, lo: f64| (((v - lo) / side * 65535.0).round() as u32).min(65535);
+    let mut keyed: Vec<(u64, u32)> = points
         .iter()
         .enumerate()
-        .map(|(i, p)| (morton(q(p.x, lo.x, size.x), q(p.y, lo.y, size.y)), i as u32))
+        .map(|(i, p)| (hilbert(q(p.x, lo.x), q(p.y, lo.y)), i as u32))
         .collect();
     keyed.sort_unstable();
     keyed.into_iter().map(|(_, i)| i).collect()
+}
+
+/// The point the numbering uses for each object: the centre of its stored
+/// rectangle when the file has the fingerprint list, else `points`.
+fn numbering_points(prints: &[ObjectPrint], points: Vec<DVec2>) -> Vec<DVec2> {
+    if prints.is_empty() {
+        return points;
+    }
+    prints
+        .iter()
+        .map(|p| {
+            let r = super::prints::stored_rect(&p.rect);
+            DVec2::new((r[0] + r[2]) / 2.0, (r[1] + r[3]) / 2.0)
+        })
+        .collect()
+}
+
+/// Append the ids, each as the bytes it shares with the previous id and
+/// the rest (docs/FORMAT.md, "Objects"): an id is never more than
+/// [`super::ID_EXPANSION`] times as long as its entry.
+fn put_ids(out: &mut Vec<u8>, ids: &[String]) {
+    let mut previous: &str = "";
+    for id in ids {
+        let common = id
+            .bytes()
+            .zip(previous.bytes())
+            .take_while(|(a, b)| a == b)
+            .count();
+        // Keep at least 1/16 of the id in the entry itself.
+        let keep = id.len().div_ceil(super::ID_EXPANSION);
+        let mut shared = common.min(id.len().saturating_sub(keep));
+        while !id.is_char_boundary(shared) {
+            shared -= 1;
+        }
+        write_leb128(out, shared as u64);
+        put_str(out, &id[shared..]);
+        previous = id;
+    }
 }
 
 impl PvsWriter {
@@ -181,7 +227,14 @@ impl PvsWriter {
         if u32::try_from(n).is_err() || u32::try_from(cells.len()).is_err() {
             return Err(Error::format("more than 2^32 - 1 objects or cells"));
         }
-        if object_points.len() != n {
+        if !object_prints.is_empty() && object_prints.len() != n {
+            return Err(Error::format(format!(
+                "{n} objects but {} object fingerprints",
+                object_prints.len()
+            )));
+        }
+        // Without fingerprints the caller's points number the objects.
+        if object_prints.is_empty() && object_points.len() != n {
             return Err(Error::format(format!(
                 "{n} objects but {} object points",
                 object_points.len()
@@ -197,7 +250,7 @@ impl PvsWriter {
                 )));
             }
         }
-        let input_of_rank = spatial_ranks(&object_points);
+        let input_of_rank = spatial_ranks(&numbering_points(&object_prints, object_points));
         let mut rank_of = vec![0u32; n];
         for (r, &i) in input_of_rank.iter().enumerate() {
             rank_of[i as usize] = r as u32;
@@ -207,7 +260,16 @@ impl PvsWriter {
         let (vertices, corners) = super::mesh::index_mesh(&cells);
         let vertex_count = u32::try_from(vertices.len())
             .map_err(|_| Error::format("more than 2^32 - 1 vertices"))?;
-        let vertex_bytes = super::mesh::encode_vertices(&vertices);
+        let mut numbers = Vec::with_capacity(vertices.len());
+        for v in &vertices {
+            numbers.push(super::mesh::grid_numbers(*v).ok_or_else(|| {
+                Error::format(format!(
+                    "cell corner ({}, {}) is not on the 1/256 m grid of cell corners",
+                    v.x, v.y
+                ))
+            })?);
+        }
+        let vertex_bytes = super::mesh::encode_vertices(&numbers);
         let triangles = super::mesh::encode_triangles(&corners);
 
         let mut strings = Vec::new();
@@ -216,19 +278,11 @@ impl PvsWriter {
             put_str(&mut strings, crs);
         }
         let mut objects = Vec::new();
-        for id in &object_ids {
-            put_str(&mut objects, id);
-        }
+        put_ids(&mut objects, &object_ids);
         for &i in &input_of_rank {
             write_leb128(&mut objects, u64::from(i));
         }
-        if !object_prints.is_empty() && object_prints.len() != n {
-            return Err(Error::format(format!(
-                "{n} objects but {} object fingerprints",
-                object_prints.len()
-            )));
-        }
-        super::prints::write_prints(&mut objects, &object_prints);
+        super::prints::write_prints(&mut objects, &object_prints, &input_of_rank);
         let block_count = cells.len().div_ceil(block_cells as usize);
         let index_len = 8 * (block_count + 1);
 
@@ -277,7 +331,7 @@ impl PvsWriter {
             index_at,
             blocks_at,
             pushed: 0,
-            block: BlockEncoder::new(n as u32),
+            block: BlockEncoder::new(n as u32, block_cells),
             cur: Vec::new(),
             stats,
             coding_counts: [0; 3],
@@ -458,7 +512,12 @@ pub fn write_streamed(
     each: &mut EachSet,
 ) -> Result<WriteStats> {
     let run = || -> Result<(Vec<u8>, WriteStats)> {
-        let points = points_of_sets(object_ids.len(), &cells, each)?;
+        // With fingerprints the objects are numbered by their rectangles.
+        let points = if object_prints.is_empty() {
+            points_of_sets(object_ids.len(), &cells, each)?
+        } else {
+            Vec::new()
+        };
         let count = cells.len();
         let mut w = PvsWriter::with_prints(info, object_ids, object_prints, points, cells)?;
         let mut pushed = 0;

@@ -138,7 +138,7 @@ pub fn view_around(scene: &Scene, cell: usize, radius: f64) -> Rect {
 /// lookup a `.pvs` reader answers (`PvsReader::cell_at`), over the scene's cells.
 pub fn cell_containing(scene: &Scene, p: DVec2) -> Option<usize> {
     let cells = &scene.cells.triangles;
-    crate::pvs::CellGrid::new(cells.len(), |c| cells[c]).find(p, |c| cells[c])
+    crate::pvs::CellGrid::new(cells.len(), |c| cells[c]).find(p, 0.0, |c| cells[c])
 }
 
 fn check(picture: &Picture) -> Result<Rect> {
