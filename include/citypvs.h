@@ -1,4 +1,4 @@
-/* citypvs.h - C interface to the citypvs .pvs reader (format version 2).
+/* citypvs.h - C interface to the citypvs .pvs reader (format version 3).
  *
  * Build the library with `cargo build --release --features capi` (or, for
  * a reader without the baker, `--no-default-features --features capi`);

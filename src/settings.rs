@@ -367,9 +367,18 @@ mod tests {
     fn defaults_are_valid_and_pixel_follows_eps() {
         let s = Settings::default();
         assert_eq!(s.eps, DEFAULT_EPS);
-        assert!(s.pixel * std::f64::consts::SQRT_2 / 2.0 <= s.eps);
+        assert!(s.pixel * std::f64::consts::SQRT_2 / 2.0 <= s.eps - CELL_SLACK);
         let s = with(|r| r.eps = Some(0.5)).unwrap();
-        assert!((s.pixel - 0.5 * std::f64::consts::SQRT_2).abs() < 1e-6);
+        assert!((s.pixel - (0.5 - CELL_SLACK) * std::f64::consts::SQRT_2).abs() < 1e-6);
+        assert!((s.sample_spacing() - 2.0 * (0.5 - CELL_SLACK)).abs() < 1e-12);
+        // eps must leave room for the grid of cell corners.
+        let err = with(|r| r.eps = Some(0.011)).unwrap_err();
+        assert_eq!(err.kind(), &ErrorKind::Setting("eps"));
+        assert!(err.to_string().contains("1/256 m grid"), "{err}");
+        // Just above the bound eps itself passes (a tiny eps then fails on
+        // the near-field map's size, a different check).
+        let above = with(|r| r.eps = Some(0.0111)).err();
+        assert!(above.is_none_or(|e| e.kind() != &ErrorKind::Setting("eps")));
     }
 
     #[test]
@@ -400,7 +409,7 @@ mod tests {
     #[test]
     fn a_tiny_pixel_is_refused_before_any_work_with_the_figure() {
         let err = with(|r| {
-            r.eps = Some(1e-6);
+            r.eps = Some(0.015);
         })
         .unwrap_err();
         assert_eq!(err.kind(), &ErrorKind::Limit("pixel"));

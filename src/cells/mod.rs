@@ -98,6 +98,15 @@ pub struct Cells {
 /// (never panics) when there is no region to take, the parameters make no
 /// sense, or nothing of the region is free.
 pub fn triangulate(blocks: &[Block], params: &CellParams) -> Result<Cells> {
+    let mut cells = triangulate_exact(blocks, params)?;
+    cells.triangles = on_grid(std::mem::take(&mut cells.triangles))?;
+    Ok(cells)
+}
+
+/// [`triangulate`] before the corners are put on the grid: triangles that
+/// tile the free space exactly (counter-clockwise, every edge within the
+/// bound). What the bake uses is this, each corner moved to the grid.
+pub fn triangulate_exact(blocks: &[Block], params: &CellParams) -> Result<Cells> {
     if !(params.max_edge > 0.0 && params.max_edge.is_finite()) {
         return Err(crate::Error::scene(format!(
             "cells: the maximum cell edge must be a positive number of metres, got {}",
@@ -124,7 +133,7 @@ pub fn triangulate(blocks: &[Block], params: &CellParams) -> Result<Cells> {
             "cells: no free space is left in the region once the footprints are removed",
         ));
     }
-    let triangles = on_grid(mesh::triangulate_free_space(&free, params.max_edge)?)?;
+    let triangles = mesh::triangulate_free_space(&free, params.max_edge)?;
     Ok(Cells {
         triangles,
         region,

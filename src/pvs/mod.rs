@@ -1,4 +1,4 @@
-//! The `.pvs` file: its layout (docs/FORMAT.md, version 2), the coding of the
+//! The `.pvs` file: its layout (docs/FORMAT.md, version 3), the coding of the
 //! visible sets in small blocks of cells, a streaming writer, and a reader
 //! that decodes any one cell's set by reading at most one block.
 //!
@@ -14,7 +14,7 @@ pub mod codec;
 mod grid;
 pub mod mesh;
 pub mod rc;
-pub use grid::{CellGrid, triangle_contains};
+pub use grid::{CellGrid, distance_to_triangle, triangle_contains};
 pub mod prints;
 mod read;
 #[doc(hidden)]

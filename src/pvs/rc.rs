@@ -1,4 +1,4 @@
-//! The binary range coder of version 2 files (docs/FORMAT.md, "Range
+//! The binary range coder of version 3 files (docs/FORMAT.md, "Range
 //! coder"): an LZMA-style coder with 16-bit adaptive probabilities, plain
 //! (equiprobable) bits, bit trees and a number coding (bit length, then the
 //! bits below the leading one). Exact integer arithmetic only, so a reader in
@@ -356,11 +356,14 @@ mod tests {
         for _ in 0..10_000 {
             update(&mut p, 0);
         }
-        assert_eq!(p.value(), 65505);
+        // The slow estimate stops moving 127 short of 65536.
+        assert!((65450..=65505).contains(&p.value()), "{}", p.value());
+        assert_eq!(p.fast, 65505);
         for _ in 0..10_000 {
             update(&mut p, 1);
         }
-        assert_eq!(p.value(), 31);
+        assert!((31..=90).contains(&p.value()), "{}", p.value());
+        assert_eq!(p.fast, 31);
         // The rates settle at 1/32 and 1/128 once 127 bits were seen.
         let mut q = PROB_INIT;
         for _ in 0..300 {

@@ -1,4 +1,4 @@
-//! Writing version 2 files (docs/FORMAT.md): [`PvsWriter`] takes the header,
+//! Writing version 3 files (docs/FORMAT.md): [`PvsWriter`] takes the header,
 //! the objects and the cell triangles up front, then the finished cells'
 //! visible sets one at a time in cell order; it holds only the output so far
 //! and the block being filled. [`encode_pvs`] and [`write_pvs`] write a whole

@@ -27,7 +27,7 @@ fn broken_and_absurd_numbers_are_refused_naming_their_own_flag() {
             "--pixel",
         ),
         (&["--eps", "1e9"], "--eps 1.000e9 m is absurd", "--pixel"),
-        (&["--eps", "1e-6"], "near-field cull map", "--eye-height"),
+        (&["--eps", "1e-6"], "--eps must be more than 0.0110 m", "--pixel"),
         (&["--pixel", "1e-6"], "near-field cull map", "--eye-height"),
         (
             &["--eye-height", "1e300"],
@@ -72,7 +72,7 @@ fn a_pixel_too_large_for_eps_names_both_and_the_largest_pixel() {
     let (code, err) = bake(dir.path(), &["--eps", "0.5", "--pixel", "1"]);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("--pixel 1 is too large for eps 0.5"), "{err}");
-    assert!(err.contains("0.707107"), "{err}");
+    assert!(err.contains("0.699294"), "{err}");
 }
 
 #[test]
@@ -80,6 +80,12 @@ fn settings_errors_have_a_kind_naming_the_setting() {
     use citypvs::{ErrorKind, RawSettings, Settings};
     let err = Settings::new(RawSettings {
         eps: Some(1e-6),
+        ..Default::default()
+    })
+    .unwrap_err();
+    assert_eq!(err.kind(), &ErrorKind::Setting("eps"));
+    let err = Settings::new(RawSettings {
+        eps: Some(0.015),
         ..Default::default()
     })
     .unwrap_err();

@@ -215,8 +215,12 @@ fn cell_at_finds_the_containing_triangle() {
     // Corners and outer edges belong to some cell; outside belongs to none.
     assert!(reader.cell_at(DVec2::new(0.0, 0.0)).is_some());
     assert!(reader.cell_at(DVec2::new(100.0, 10.0)).is_some());
-    assert_eq!(reader.cell_at(DVec2::new(-0.001, 5.0)), None);
-    assert_eq!(reader.cell_at(DVec2::new(50.0, 10.001)), None);
+    assert_eq!(reader.cell_at(DVec2::new(-0.003, 5.0)), None);
+    assert_eq!(reader.cell_at(DVec2::new(50.0, 10.003)), None);
+    // Within the snap distance (2.8 mm) of a cell: the nearest cell.
+    assert_eq!(reader.cell_at(DVec2::new(-0.002, 5.0)), Some(1));
+    assert_eq!(reader.cell_at(DVec2::new(55.0, 10.002)), Some(11));
+    assert_eq!(reader.cell_at(DVec2::new(100.002, 2.0)), Some(18));
     assert_eq!(reader.cell_at(DVec2::new(f64::NAN, 5.0)), None);
 }
 
@@ -229,10 +233,11 @@ fn cell_at_agrees_with_brute_force_on_random_points() {
         let a0 = k as f64 * std::f64::consts::TAU / 200.0;
         let a1 = a0 + 0.025 + rng.random_range(0.0..0.006);
         let r = rng.random_range(50.0..500.0);
+        let on_grid = |p: DVec2| citypvs::pvs::mesh::snap(p).unwrap();
         cells.push([
-            DVec2::new(rng.random_range(-3.0..3.0), rng.random_range(-3.0..3.0)),
-            DVec2::new(r * a0.cos(), r * a0.sin()),
-            DVec2::new(r * a1.cos(), r * a1.sin()),
+            on_grid(DVec2::new(rng.random_range(-3.0..3.0), rng.random_range(-3.0..3.0))),
+            on_grid(DVec2::new(r * a0.cos(), r * a0.sin())),
+            on_grid(DVec2::new(r * a1.cos(), r * a1.sin())),
         ]);
     }
     let n = cells.len();
@@ -251,14 +256,23 @@ fn cell_at_agrees_with_brute_force_on_random_points() {
         let s = (t[1] - t[0]).perp_dot(t[2] - t[0]).signum();
         (0..3).all(|k| (t[(k + 1) % 3] - t[k]).perp_dot(p - t[k]) * s >= 0.0)
     };
-    let mut inside = 0;
+    let (mut inside, mut near) = (0, 0);
     for _ in 0..20_000 {
         let p = DVec2::new(
             rng.random_range(-520.0..520.0),
             rng.random_range(-520.0..520.0),
         );
         let expected: Vec<usize> = (0..n).filter(|&c| contains(&cells[c], p)).collect();
+        // In no cell: the nearest within the snap distance, if any.
+        let nearest = (0..n)
+            .map(|c| (citypvs::pvs::distance_to_triangle(&cells[c], p), c))
+            .filter(|&(d, _)| d <= citypvs::pvs::mesh::SNAP_DISTANCE)
+            .min_by(|a, b| a.partial_cmp(b).unwrap());
         match reader.cell_at(p) {
+            Some(c) if expected.is_empty() => {
+                assert_eq!(Some(c), nearest.map(|(_, c)| c), "{p}");
+                near += 1;
+            }
             Some(c) => {
                 assert!(
                     expected.contains(&c),
@@ -266,10 +280,25 @@ fn cell_at_agrees_with_brute_force_on_random_points() {
                 );
                 inside += 1;
             }
-            None => assert!(expected.is_empty(), "{p} missed {expected:?}"),
+            None => assert!(expected.is_empty() && nearest.is_none(), "{p} missed {expected:?}"),
+        }
+    }
+    // Points just outside the cells, near their edges.
+    for c in 0..n {
+        let t = &cells[c];
+        let mid = (t[1] + t[2]) / 2.0;
+        let out = (mid - t[0]).normalize();
+        for (d, found) in [(0.002, true), (0.004, false)] {
+            let p = mid + out * d;
+            if (0..n).any(|k| citypvs::pvs::distance_to_triangle(&cells[k], p) <= 0.0028) != found {
+                continue;
+            }
+            assert_eq!(reader.cell_at(p).is_some(), found, "{p} at {d} m from cell {c}");
+            near += usize::from(found);
         }
     }
     assert!(inside > 1000, "too few points inside: {inside}");
+    assert!(near > 100, "too few points near: {near}");
 }
 
 fn sample_file() -> Vec<u8> {
@@ -328,17 +357,19 @@ fn bad_magic_and_version_are_named() {
             .contains("not a citypvs")
     );
     let mut bytes = sample_file();
-    bytes[8] = 3;
+    bytes[8] = 4;
     assert!(
         crate::common::error_of(PvsReader::from_bytes(bytes), ErrorKind::Format)
-            .contains("version 3")
+            .contains("reads version 3")
     );
-    let mut bytes = sample_file();
-    bytes[8] = 1;
-    assert!(
-        crate::common::error_of(PvsReader::from_bytes(bytes), ErrorKind::Format)
-            .contains("version 1 file: rebake with this citypvs")
-    );
+    for old in [1u8, 2] {
+        let mut bytes = sample_file();
+        bytes[8] = old;
+        assert!(
+            crate::common::error_of(PvsReader::from_bytes(bytes), ErrorKind::Format)
+                .contains(&format!("version {old} file: rebake with this citypvs"))
+        );
+    }
 }
 
 /// Corrupt the body and then repair the length and checksum, so the structural
@@ -382,8 +413,9 @@ fn structurally_corrupt_files_with_valid_checksums_never_panic() {
 #[test]
 fn a_bad_block_fails_only_its_own_cells() {
     use sha2::{Digest, Sha256};
+    // 1,200 cells: three blocks of at most 512.
     let data = strip(
-        100,
+        600,
         50,
         Frame::LonLat {
             lon0: 0.0,

@@ -4,7 +4,7 @@
 //! slits that no viewer fits in. Also the old-town style's cell quality.
 
 use crate::common::block;
-use citypvs::cells::{CellParams, triangulate};
+use citypvs::cells::{CellParams, triangulate_exact};
 use citypvs::geometry::merge_blocks;
 use citypvs::model::{Building, Polygon, distance_to_segment, point_in_multipolygon};
 use citypvs::prepare::prepare;
@@ -86,7 +86,7 @@ fn passages_just_wider_than_min_gap_keep_cells_narrower_ones_lose_them() {
     // polygon (2% wider there).
     for angle in [0.0, 0.3, 11.25f64.to_radians(), 1.0] {
         let wide = corridor(MIN_GAP * 1.06, angle);
-        let cells = triangulate(&merge_blocks(&wide), &params(MIN_GAP)).unwrap();
+        let cells = triangulate_exact(&merge_blocks(&wide), &params(MIN_GAP)).unwrap();
         let area = corridor_cell_area(&cells.triangles, MIN_GAP * 1.06, angle);
         // The corridor is 18 m long here; all but a few millimetres kept.
         assert!(
@@ -96,12 +96,12 @@ fn passages_just_wider_than_min_gap_keep_cells_narrower_ones_lose_them() {
         assert_clear(&cells.triangles, &wide, 0.9e-3);
 
         let narrow = corridor(MIN_GAP * 0.94, angle);
-        let cells = triangulate(&merge_blocks(&narrow), &params(MIN_GAP)).unwrap();
+        let cells = triangulate_exact(&merge_blocks(&narrow), &params(MIN_GAP)).unwrap();
         let area = corridor_cell_area(&cells.triangles, MIN_GAP * 0.94, angle);
         assert_eq!(area, 0.0, "angle {angle}: cells in the narrow passage");
         assert_clear(&cells.triangles, &narrow, 0.9e-3);
         // Without a minimum gap the narrow passage has cells.
-        let all = triangulate(&merge_blocks(&narrow), &params(0.0)).unwrap();
+        let all = triangulate_exact(&merge_blocks(&narrow), &params(0.0)).unwrap();
         assert!(corridor_cell_area(&all.triangles, MIN_GAP * 0.94, angle) > 5.0);
     }
 }
@@ -127,7 +127,7 @@ fn passages_get_few_thick_cells() {
             max_edge: 30.0,
             ..params(MIN_GAP)
         };
-        let cells = triangulate(&merge_blocks(&city), &params).unwrap();
+        let cells = triangulate_exact(&merge_blocks(&city), &params).unwrap();
         let back = DVec2::from_angle(-angle);
         let inside: Vec<&[DVec2; 3]> = cells
             .triangles
@@ -240,7 +240,7 @@ fn old_town_cells_are_rarely_thin() {
         summary.cells
     );
     assert!(summary.dropped_area_m2 > 0.0);
-    // No cell corner inside or within 0.9 mm of any footprint.
+    // No cell corner deeper inside a footprint than the grid moves it.
     let mut grid: std::collections::HashMap<(i64, i64), Vec<DVec2>> = Default::default();
     let key = |p: DVec2| ((p.x / 10.0).floor() as i64, (p.y / 10.0).floor() as i64);
     for t in &scene.cells.triangles {
@@ -254,15 +254,24 @@ fn old_town_cells_are_rarely_thin() {
         for kx in k0.0..=k1.0 {
             for ky in k0.1..=k1.1 {
                 for &v in grid.get(&(kx, ky)).into_iter().flatten() {
-                    assert!(!point_in_multipolygon(v, &b.footprint), "{v} in {}", b.id);
+                    // The exact corners keep 0.9 mm from every wall (the
+                    // corridor tests); on the 1/256 m grid a corner may
+                    // move up to the snap distance, never farther in.
+                    let mut nearest = f64::INFINITY;
                     for p in &b.footprint {
                         for ring in std::iter::once(&p.exterior).chain(p.holes.iter()) {
                             for i in 0..ring.len() {
                                 let d = distance_to_segment(v, ring[i], ring[(i + 1) % ring.len()]);
-                                assert!(d >= 0.9e-3, "{v} {d} m from {}", b.id);
+                                nearest = nearest.min(d);
                             }
                         }
                     }
+                    assert!(
+                        !point_in_multipolygon(v, &b.footprint)
+                            || nearest <= citypvs::pvs::mesh::SNAP_DISTANCE,
+                        "{v} is {nearest} m inside {}",
+                        b.id
+                    );
                 }
             }
         }
@@ -318,7 +327,7 @@ proptest! {
             .iter()
             .map(|b| rotate(b, angle))
             .collect();
-        let cells = triangulate(&merge_blocks(&buildings), &params(MIN_GAP)).unwrap();
+        let cells = triangulate_exact(&merge_blocks(&buildings), &params(MIN_GAP)).unwrap();
         assert_clear(&cells.triangles, &buildings, 0.9e-3);
         let thin = cells
             .triangles

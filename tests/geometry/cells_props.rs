@@ -5,7 +5,7 @@
 
 use crate::scenes;
 
-use citypvs::cells::{CellParams, Cells, triangulate};
+use citypvs::cells::{CellParams, Cells, triangulate, triangulate_exact};
 use citypvs::geometry::merge_blocks;
 use citypvs::model::{
     Polygon, multipolygon_area, point_in_multipolygon, point_in_polygon, polygon_area,
@@ -29,6 +29,24 @@ fn inside_margin(p: DVec2, t: &[DVec2; 3]) -> f64 {
             (b - a).perp_dot(p - a) / (b - a).length()
         })
         .fold(f64::INFINITY, f64::min)
+}
+
+/// The cells a bake uses are the exact ones with every corner moved to the
+/// nearest point of the 1/256 m grid: same count and order, each corner on
+/// the grid and within the snap distance of its exact place, and a corner
+/// shared in the exact cells is shared on the grid.
+fn assert_on_grid(grid: &Cells, exact: &Cells) {
+    use citypvs::pvs::mesh::{SNAP_DISTANCE, grid_numbers};
+    assert_eq!(grid.triangles.len(), exact.triangles.len());
+    let mut moved = std::collections::HashMap::new();
+    for (g, e) in grid.triangles.iter().zip(&exact.triangles) {
+        for (p, q) in g.iter().zip(e) {
+            assert!(grid_numbers(*p).is_some(), "{p} is off the grid");
+            assert!(p.distance(*q) <= SNAP_DISTANCE, "{q} moved {} m", p.distance(*q));
+            let to = *moved.entry((q.x.to_bits(), q.y.to_bits())).or_insert(*p);
+            assert_eq!(to, *p, "{q} went to two places");
+        }
+    }
 }
 
 fn check_cells(cells: &Cells, footprints: &[Polygon], max_edge: f64, rng: &mut ChaCha8Rng) {
@@ -98,7 +116,7 @@ proptest! {
         let scene = scene(seed);
         let blocks = merge_blocks(&scene.buildings);
         let params = CellParams { margin, max_edge, region: None, min_gap: 0.0 };
-        let cells = triangulate(&blocks, &params).unwrap();
+        let cells = triangulate_exact(&blocks, &params).unwrap();
         let footprint_area: f64 = blocks.iter().map(|b| multipolygon_area(&b.levels[0].area)).sum();
         let expected = polygon_area(&cells.region) - footprint_area;
         let total: f64 = cells.triangles.iter().map(signed_area).sum();
@@ -106,7 +124,8 @@ proptest! {
         let footprints: Vec<Polygon> = scene.buildings.iter().flat_map(|b| b.footprint.clone()).collect();
         let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0xce11);
         check_cells(&cells, &footprints, max_edge, &mut rng);
-        let again = triangulate(&blocks, &params).unwrap();
+        let again = triangulate_exact(&blocks, &params).unwrap();
+        assert_on_grid(&triangulate(&blocks, &params).unwrap(), &cells);
         prop_assert_eq!(&cells.triangles, &again.triangles);
     }
 
@@ -123,7 +142,7 @@ proptest! {
         let region = star_polygon(&mut rng, centre, r_min, r_min + 40.0, courtyard);
         let params = CellParams { margin: 0.0, max_edge, region: Some(region.clone()), min_gap: 0.0 };
         let footprints: Vec<Polygon> = scene.buildings.iter().flat_map(|b| b.footprint.clone()).collect();
-        match triangulate(&blocks, &params) {
+        match triangulate_exact(&blocks, &params) {
             Ok(cells) => {
                 prop_assert_eq!(&cells.region, &region);
                 let total: f64 = cells.triangles.iter().map(signed_area).sum();

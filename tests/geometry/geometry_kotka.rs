@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use citypvs::cells::{CellParams, triangulate};
+use citypvs::cells::{CellParams, triangulate_exact};
 use citypvs::geometry::{merge_blocks, shrink_blocks};
 use citypvs::input::{InputOptions, read_city};
 use citypvs::model::{
@@ -113,7 +113,7 @@ fn kotka_prepares() {
         min_gap: 0.0,
         ..CellParams::default()
     };
-    let cells = triangulate(&blocks, &params).unwrap();
+    let cells = triangulate_exact(&blocks, &params).unwrap();
     let footprints: f64 = blocks
         .iter()
         .map(|b| multipolygon_area(&b.levels[0].area))
@@ -134,7 +134,7 @@ fn kotka_prepares() {
     );
     // With the default minimum gap a little is dropped (the narrow gaps
     // and the 1 mm band along the walls), never more than 0.01%.
-    let kept = triangulate(&blocks, &CellParams::default()).unwrap();
+    let kept = triangulate_exact(&blocks, &CellParams::default()).unwrap();
     let kept_total: f64 = kept
         .triangles
         .iter()

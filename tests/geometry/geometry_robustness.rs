@@ -1,7 +1,7 @@
 //! Broken and degenerate geometry never makes merge, erosion or
 //! triangulation panic: they return a result or an error.
 
-use citypvs::cells::{CellParams, triangulate};
+use citypvs::cells::{CellParams, triangulate, triangulate_exact};
 use citypvs::geometry::{erode, merge_blocks, shrink_blocks};
 use citypvs::model::{Building, Polygon};
 use glam::DVec2;
@@ -107,7 +107,7 @@ proptest! {
         let blocks = merge_blocks(&buildings);
         let _ = shrink_blocks(&blocks, eps);
         let params = CellParams { margin: 10.0, max_edge, region: None, min_gap: 0.0 };
-        if let Ok(cells) = triangulate(&blocks, &params) {
+        if let Ok(cells) = triangulate_exact(&blocks, &params) {
             for t in &cells.triangles {
                 prop_assert!((t[1] - t[0]).perp_dot(t[2] - t[0]) > 0.0);
                 for i in 0..3 {

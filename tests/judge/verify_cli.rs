@@ -48,7 +48,7 @@ fn pvs(city_path: &Path, visible: [&[&str]; 4], ids: &[&str]) -> PvsData {
         },
     )
     .expect("the test city reads");
-    let q = |x: f64, y: f64| city.frame.to_local(x + OFFSET.0, y + OFFSET.1);
+    let q = |x: f64, y: f64| citypvs::pvs::mesh::snap(city.frame.to_local(x + OFFSET.0, y + OFFSET.1)).unwrap();
     let cells = vec![
         [q(0.0, -10.0), q(50.0, -10.0), q(0.0, 10.0)],
         [q(50.0, -10.0), q(50.0, 10.0), q(0.0, 10.0)],
@@ -61,7 +61,7 @@ fn pvs(city_path: &Path, visible: [&[&str]; 4], ids: &[&str]) -> PvsData {
             numbers: citypvs::BakeNumbers {
                 eps: 0.25,
                 eye_height: 1.7,
-                pixel: 0.35,
+                pixel: 0.34,
                 max_cell_edge: 60.0,
                 margin: 10.0,
                 near_field: 48.0,
