@@ -1,4 +1,4 @@
-//! Fuzz target: the .pvs reader (format version 2, docs/FORMAT.md). A file
+//! Fuzz target: the .pvs reader (format version 3, docs/FORMAT.md). A file
 //! that opens must answer `visible`, `visible_ids`, `for_each_visible` and
 //! `cell_at` with a result or an error, never a panic, an abort or a hang.
 //!

@@ -426,6 +426,19 @@ mod tests {
     use proptest::prelude::*;
 
     #[test]
+    fn reference_bits_name_every_earlier_cell() {
+        assert_eq!(ref_bits(1), 1);
+        assert_eq!(ref_bits(2), 1);
+        assert_eq!(ref_bits(128), 7);
+        assert_eq!(ref_bits(256), 8);
+        assert_eq!(ref_bits(512), 9);
+        assert_eq!(ref_bits(1024), 10);
+        for cells in 2..=1024u32 {
+            assert!(cells - 1 < 1 << ref_bits(cells), "{cells}");
+        }
+    }
+
+    #[test]
     fn varint_lengths() {
         for v in [
             0u64,
@@ -485,20 +498,22 @@ mod tests {
 
     proptest! {
         #[test]
-        fn cells_round_trip(n in 1u32..3000, cells in proptest::collection::vec(proptest::collection::vec(any::<u32>(), 0..200), 1..12)) {
+        fn cells_round_trip(n in 1u32..3000, cells in proptest::collection::vec(proptest::collection::vec(any::<u32>(), 0..200), 1..12), extra in 0u32..1013) {
+            // Any block size that holds the cells: the references' bits follow it.
+            let block_cells = cells.len() as u32 + extra;
             let sets: Vec<Vec<u32>> = cells.iter().map(|c| {
                 let mut s: Vec<u32> = c.iter().map(|v| v % n).collect();
                 s.sort_unstable();
                 s.dedup();
                 s
             }).collect();
-            let mut e = BlockEncoder::new(n, 256);
+            let mut e = BlockEncoder::new(n, block_cells);
             for round in 0..2 {
                 for s in &sets {
                     e.push(s);
                 }
                 let bytes = e.finish();
-                let mut d = BlockDecoder::new(&bytes, n, 256).unwrap();
+                let mut d = BlockDecoder::new(&bytes, n, block_cells).unwrap();
                 let mut set = Vec::new();
                 for s in &sets {
                     d.next(&mut set).unwrap();

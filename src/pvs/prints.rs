@@ -280,3 +280,55 @@ pub fn read_prints(bytes: &[u8], objects: usize, input_of_rank: &[u32]) -> Resul
     }
     Ok(out)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        #[test]
+        fn the_list_round_trips_with_rectangles_rounded_outwards(
+            entries in proptest::collection::vec(
+                (any::<u64>(), 0u8..4, -5e5f64..5e5, -5e5f64..5e5, 0f64..300.0, 0f64..300.0),
+                1..60,
+            ),
+            seed in any::<u64>(),
+        ) {
+            let mut prints: Vec<ObjectPrint> = Vec::new();
+            for (k, &(object, kind, x, y, w, h)) in entries.iter().enumerate() {
+                let block = match kind {
+                    0 => 0,
+                    1 => object,
+                    2 => prints.last().map_or(7, |p| p.block),
+                    _ => object ^ (k as u64 + 1),
+                };
+                prints.push(ObjectPrint { object, block, rect: [x, y, x + w, y + h] });
+            }
+            let n = prints.len();
+            // Some permutation as the spatial numbering.
+            let mut input_of_rank: Vec<u32> = (0..n as u32).collect();
+            input_of_rank.sort_by_key(|&i| (u64::from(i) ^ seed).wrapping_mul(0x9e37_79b9_7f4a_7c15));
+            let mut bytes = Vec::new();
+            write_prints(&mut bytes, &prints, &input_of_rank);
+            let back = read_prints(&bytes, n, &input_of_rank).unwrap();
+            for (p, q) in prints.iter().zip(&back) {
+                prop_assert_eq!(p.object, q.object);
+                prop_assert_eq!(p.block, q.block);
+                prop_assert_eq!(q.rect, stored_rect(&p.rect));
+                // Outwards by less than one grid step.
+                prop_assert!(q.rect[0] <= p.rect[0] && p.rect[0] - q.rect[0] < 1.0 / 256.0);
+                prop_assert!(q.rect[1] <= p.rect[1] && p.rect[1] - q.rect[1] < 1.0 / 256.0);
+                prop_assert!(q.rect[2] >= p.rect[2] && q.rect[2] - p.rect[2] < 1.0 / 256.0);
+                prop_assert!(q.rect[3] >= p.rect[3] && q.rect[3] - p.rect[3] < 1.0 / 256.0);
+            }
+            // Cut short or with a byte more: refused, never a panic.
+            for cut in [bytes.len() - 1, bytes.len() / 2, 1] {
+                prop_assert!(read_prints(&bytes[..cut], n, &input_of_rank).is_err());
+            }
+            let mut longer = bytes.clone();
+            longer.push(1);
+            prop_assert!(read_prints(&longer, n, &input_of_rank).is_err());
+        }
+    }
+}

@@ -448,3 +448,32 @@ fn a_bad_block_fails_only_its_own_cells() {
     }
     assert!(reader.visible(reader.cell_count()).is_err());
 }
+
+#[test]
+fn ids_sharing_long_prefixes_and_non_ascii_ids_round_trip() {
+    let mut data = strip(
+        30,
+        0,
+        Frame::LonLat {
+            lon0: 0.0,
+            lat0: 0.0,
+        },
+    );
+    let long = "urn:example:city:district-7:block-3:".repeat(6);
+    let mut ids: Vec<String> = (0..40).map(|i| format!("{long}{:05}", i * 7)).collect();
+    ids.extend(["é", "éa", "ée", "日本", "日本語", "x"].map(String::from));
+    let n = ids.len() as u32;
+    data.object_ids = ids.clone();
+    data.visible = (0..data.cells.len())
+        .map(|c| (0..n).filter(|i| (i + c as u32) % 3 == 0).collect())
+        .collect();
+    let (bytes, stats) = encode_pvs(&data).unwrap();
+    let reader = PvsReader::from_bytes(bytes).unwrap();
+    assert_eq!(reader.object_ids(), ids.as_slice());
+    // Shared prefixes are not stored again (an id is at most 16 times its entry).
+    let plain: usize = ids.iter().map(|s| 1 + s.len()).sum();
+    assert!((stats.object_bytes as usize) < plain / 3, "{} of {plain}", stats.object_bytes);
+    for c in 0..data.cells.len() {
+        assert_eq!(reader.visible(c).unwrap(), data.visible[c]);
+    }
+}
