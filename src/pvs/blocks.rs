@@ -236,7 +236,11 @@ impl BlockEncoder {
     /// `block_cells` cells per block). Returns how many references it used.
     pub fn push(&mut self, ranks: &[u32]) -> u8 {
         let (w, k) = (self.words, self.cells);
-        assert!(k < self.block_cells, "at most {} cells per block", self.block_cells);
+        assert!(
+            k < self.block_cells,
+            "at most {} cells per block",
+            self.block_cells
+        );
         let at = k * w;
         self.rows.resize(at + w, 0);
         for &r in ranks {
@@ -386,14 +390,20 @@ impl<'a> BlockDecoder<'a> {
         let m = &mut self.models;
         let (mut a, mut b) = (0usize, 0usize);
         if k >= 1 {
-            a = self.rc.tree(&mut m.back_a, self.ref_bits).map_err(past_end)? as usize;
+            a = self
+                .rc
+                .tree(&mut m.back_a, self.ref_bits)
+                .map_err(past_end)? as usize;
             if a > k {
                 return Err(format!(
                     "a cell refers {a} cells back, but {k} cells precede it in its block"
                 ));
             }
             if a > 0 && k >= 2 {
-                b = self.rc.tree(&mut m.back_b, self.ref_bits).map_err(past_end)? as usize;
+                b = self
+                    .rc
+                    .tree(&mut m.back_b, self.ref_bits)
+                    .map_err(past_end)? as usize;
                 if b > k {
                     return Err(format!(
                         "a cell refers {b} cells back, but {k} cells precede it in its block"

@@ -116,7 +116,8 @@ impl CellGrid {
     /// cell within `reach` of `p` (ties: the lowest-numbered), if any.
     pub fn find(&self, p: DVec2, reach: f64, tri: impl Fn(usize) -> [DVec2; 3]) -> Option<usize> {
         let (min, max) = self.bounds?;
-        let outside = |d: f64| p.x < min.x - d || p.y < min.y - d || p.x > max.x + d || p.y > max.y + d;
+        let outside =
+            |d: f64| p.x < min.x - d || p.y < min.y - d || p.x > max.x + d || p.y > max.y + d;
         if !p.is_finite() || outside(reach) {
             return None;
         }
@@ -139,7 +140,9 @@ impl CellGrid {
         self.grid.for_each_in_rect(&near, |square| {
             for &c in self.lists.get(square) {
                 let d = distance_to_triangle(&tri(c as usize), p);
-                if d <= reach && best.is_none_or(|(bd, bc)| d < bd || (d == bd && (c as usize) < bc)) {
+                if d <= reach
+                    && best.is_none_or(|(bd, bc)| d < bd || (d == bd && (c as usize) < bc))
+                {
                     best = Some((d, c as usize));
                 }
             }

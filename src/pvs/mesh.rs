@@ -165,7 +165,11 @@ impl CornerCoding {
             self.next += 1;
             self.next - 1
         } else {
-            let at = self.window.iter().position(|&w| w == v).unwrap_or(WINDOW - 1);
+            let at = self
+                .window
+                .iter()
+                .position(|&w| w == v)
+                .unwrap_or(WINDOW - 1);
             let at = rc
                 .code_tree(&mut self.recent[k], WINDOW_BITS, at as u32)
                 .map_err(past)? as usize;
@@ -176,7 +180,10 @@ impl CornerCoding {
                 }
             } else {
                 let back = rc
-                    .number_of(&mut self.back[k], self.next.wrapping_sub(u64::from(v)).wrapping_sub(1))
+                    .number_of(
+                        &mut self.back[k],
+                        self.next.wrapping_sub(u64::from(v)).wrapping_sub(1),
+                    )
                     .map_err(past)?
                     .and_then(|b| b.checked_add(1))
                     .filter(|&b| b <= self.next)
@@ -250,7 +257,9 @@ pub fn decode_triangles(
     for c in 0..cells {
         let mut tri = [0u32; 3];
         for (k, corner) in tri.iter_mut().enumerate() {
-            let index = coding.corner(&mut rc, k, 0).map_err(|e| format!("cell {c}: {e}"))?;
+            let index = coding
+                .corner(&mut rc, k, 0)
+                .map_err(|e| format!("cell {c}: {e}"))?;
             if index >= u64::from(vertex_count) {
                 return Err(format!(
                     "cell {c} uses vertex {index}, but there are {vertex_count}"

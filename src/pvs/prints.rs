@@ -128,7 +128,12 @@ fn rect_numbers(rect: &[f64; 4]) -> [i64; 4] {
         let s = v * 256.0;
         (if up { s.ceil() } else { s.floor() }) as i64
     };
-    [g(rect[0], false), g(rect[1], false), g(rect[2], true), g(rect[3], true)]
+    [
+        g(rect[0], false),
+        g(rect[1], false),
+        g(rect[2], true),
+        g(rect[3], true),
+    ]
 }
 
 /// The rectangle a file stores for `rect`: the footprint's rectangle
@@ -208,7 +213,11 @@ pub fn write_prints(out: &mut Vec<u8>, prints: &[ObjectPrint], input_of_rank: &[
 /// Read the list from `bytes` (what follows the spatial numbering up to the
 /// end of the objects section) for `objects` objects numbered by
 /// `input_of_rank`. An empty rest is a file without the list.
-pub fn read_prints(bytes: &[u8], objects: usize, input_of_rank: &[u32]) -> Result<Vec<ObjectPrint>> {
+pub fn read_prints(
+    bytes: &[u8],
+    objects: usize,
+    input_of_rank: &[u32],
+) -> Result<Vec<ObjectPrint>> {
     if bytes.is_empty() {
         return Ok(Vec::new());
     }
@@ -230,7 +239,8 @@ pub fn read_prints(bytes: &[u8], objects: usize, input_of_rank: &[u32]) -> Resul
         )));
     }
     let past = |_| Error::format("objects section: the fingerprints' coding runs past its end");
-    let mut rc = Decoder::new(&bytes[at..]).map_err(|e| Error::format(format!("objects section: {e}")))?;
+    let mut rc =
+        Decoder::new(&bytes[at..]).map_err(|e| Error::format(format!("objects section: {e}")))?;
     let mut m = PrintModels::new();
     let mut out = vec![
         ObjectPrint {
@@ -253,7 +263,11 @@ pub fn read_prints(bytes: &[u8], objects: usize, input_of_rank: &[u32]) -> Resul
         previous_block = block;
         let mut rect = [0.0; 4];
         for k in 0..2 {
-            let bad = || Error::format(format!("objects section: the rectangle of rank {r} is out of range"));
+            let bad = || {
+                Error::format(format!(
+                    "objects section: the rectangle of rank {r} is out of range"
+                ))
+            };
             let z = rc.number(&mut m.corner[k]).map_err(past)?.ok_or_else(bad)?;
             let lo = previous_corner[k]
                 .checked_add(unzigzag(z))
@@ -269,7 +283,11 @@ pub fn read_prints(bytes: &[u8], objects: usize, input_of_rank: &[u32]) -> Resul
             rect[k] = lo as f64 / 256.0;
             rect[k + 2] = hi as f64 / 256.0;
         }
-        out[i as usize] = ObjectPrint { object, block, rect };
+        out[i as usize] = ObjectPrint {
+            object,
+            block,
+            rect,
+        };
     }
     let end = at + rc.pos();
     if end != bytes.len() {

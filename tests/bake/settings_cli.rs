@@ -27,7 +27,11 @@ fn broken_and_absurd_numbers_are_refused_naming_their_own_flag() {
             "--pixel",
         ),
         (&["--eps", "1e9"], "--eps 1.000e9 m is absurd", "--pixel"),
-        (&["--eps", "1e-6"], "--eps must be more than 0.0110 m", "--pixel"),
+        (
+            &["--eps", "1e-6"],
+            "--eps must be more than 0.0110 m",
+            "--pixel",
+        ),
         (&["--pixel", "1e-6"], "near-field cull map", "--eye-height"),
         (
             &["--eye-height", "1e300"],

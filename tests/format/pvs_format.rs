@@ -235,7 +235,10 @@ fn cell_at_agrees_with_brute_force_on_random_points() {
         let r = rng.random_range(50.0..500.0);
         let on_grid = |p: DVec2| citypvs::pvs::mesh::snap(p).unwrap();
         cells.push([
-            on_grid(DVec2::new(rng.random_range(-3.0..3.0), rng.random_range(-3.0..3.0))),
+            on_grid(DVec2::new(
+                rng.random_range(-3.0..3.0),
+                rng.random_range(-3.0..3.0),
+            )),
             on_grid(DVec2::new(r * a0.cos(), r * a0.sin())),
             on_grid(DVec2::new(r * a1.cos(), r * a1.sin())),
         ]);
@@ -280,7 +283,10 @@ fn cell_at_agrees_with_brute_force_on_random_points() {
                 );
                 inside += 1;
             }
-            None => assert!(expected.is_empty() && nearest.is_none(), "{p} missed {expected:?}"),
+            None => assert!(
+                expected.is_empty() && nearest.is_none(),
+                "{p} missed {expected:?}"
+            ),
         }
     }
     // Points just outside the cells, near their edges.
@@ -293,7 +299,11 @@ fn cell_at_agrees_with_brute_force_on_random_points() {
             if (0..n).any(|k| citypvs::pvs::distance_to_triangle(&cells[k], p) <= 0.0028) != found {
                 continue;
             }
-            assert_eq!(reader.cell_at(p).is_some(), found, "{p} at {d} m from cell {c}");
+            assert_eq!(
+                reader.cell_at(p).is_some(),
+                found,
+                "{p} at {d} m from cell {c}"
+            );
             near += usize::from(found);
         }
     }
@@ -472,7 +482,11 @@ fn ids_sharing_long_prefixes_and_non_ascii_ids_round_trip() {
     assert_eq!(reader.object_ids(), ids.as_slice());
     // Shared prefixes are not stored again (an id is at most 16 times its entry).
     let plain: usize = ids.iter().map(|s| 1 + s.len()).sum();
-    assert!((stats.object_bytes as usize) < plain / 3, "{} of {plain}", stats.object_bytes);
+    assert!(
+        (stats.object_bytes as usize) < plain / 3,
+        "{} of {plain}",
+        stats.object_bytes
+    );
     for c in 0..data.cells.len() {
         assert_eq!(reader.visible(c).unwrap(), data.visible[c]);
     }

@@ -42,7 +42,11 @@ fn assert_on_grid(grid: &Cells, exact: &Cells) {
     for (g, e) in grid.triangles.iter().zip(&exact.triangles) {
         for (p, q) in g.iter().zip(e) {
             assert!(grid_numbers(*p).is_some(), "{p} is off the grid");
-            assert!(p.distance(*q) <= SNAP_DISTANCE, "{q} moved {} m", p.distance(*q));
+            assert!(
+                p.distance(*q) <= SNAP_DISTANCE,
+                "{q} moved {} m",
+                p.distance(*q)
+            );
             let to = *moved.entry((q.x.to_bits(), q.y.to_bits())).or_insert(*p);
             assert_eq!(to, *p, "{q} went to two places");
         }

@@ -48,7 +48,9 @@ fn pvs(city_path: &Path, visible: [&[&str]; 4], ids: &[&str]) -> PvsData {
         },
     )
     .expect("the test city reads");
-    let q = |x: f64, y: f64| citypvs::pvs::mesh::snap(city.frame.to_local(x + OFFSET.0, y + OFFSET.1)).unwrap();
+    let q = |x: f64, y: f64| {
+        citypvs::pvs::mesh::snap(city.frame.to_local(x + OFFSET.0, y + OFFSET.1)).unwrap()
+    };
     let cells = vec![
         [q(0.0, -10.0), q(50.0, -10.0), q(0.0, 10.0)],
         [q(50.0, -10.0), q(50.0, 10.0), q(0.0, 10.0)],
