@@ -6,7 +6,7 @@
 use glam::DVec2;
 
 use crate::grid::{CellLists, Key, UniformGrid};
-use crate::model::Rect;
+use crate::model::{Rect, distance_to_segment};
 
 /// Grid squares list the triangles whose bounding box overlaps them.
 pub struct CellGrid {
@@ -38,17 +38,7 @@ pub fn distance_to_triangle(t: &[DVec2; 3], p: DVec2) -> f64 {
         return 0.0;
     }
     (0..3)
-        .map(|k| {
-            let (a, b) = (t[k], t[(k + 1) % 3]);
-            let ab = b - a;
-            let len2 = ab.length_squared();
-            let s = if len2 > 0.0 {
-                ((p - a).dot(ab) / len2).clamp(0.0, 1.0)
-            } else {
-                0.0
-            };
-            p.distance(a + ab * s)
-        })
+        .map(|k| distance_to_segment(p, t[k], t[(k + 1) % 3]))
         .fold(f64::INFINITY, f64::min)
 }
 

@@ -15,9 +15,9 @@ use super::rc::{BitCoder, Decoder, Encoder, NumberModel, PROB_INIT, Prob};
 /// Cell corners lie on the grid of this spacing in local metres (1/256 m).
 pub const GRID: f64 = 1.0 / 256.0;
 /// Grid numbers per metre.
-const PER_METRE: f64 = 256.0;
+pub(super) const PER_METRE: f64 = 256.0;
 /// Largest grid number a coordinate may have: 2^52 (about 1.8e13 m).
-const MAX_GRID_NUMBER: i64 = 1 << 52;
+pub(super) const MAX_GRID_NUMBER: i64 = 1 << 52;
 /// The greatest distance a corner moves when put on the grid: half the
 /// diagonal of a grid square.
 pub const SNAP_DISTANCE: f64 = GRID * std::f64::consts::FRAC_1_SQRT_2;
@@ -52,11 +52,12 @@ const WINDOW_BITS: u32 = 6;
 pub const VERTEX_MIN_BYTES: u64 = 2;
 pub const CELL_MIN_BYTES: u64 = 1;
 
-fn zigzag(d: i64) -> u64 {
+/// A signed difference as an unsigned number: 0, -1, 1, -2, ... as 0, 1, 2, 3, ...
+pub(super) fn zigzag(d: i64) -> u64 {
     ((d << 1) ^ (d >> 63)) as u64
 }
 
-fn unzigzag(z: u64) -> i64 {
+pub(super) fn unzigzag(z: u64) -> i64 {
     ((z >> 1) ^ (z & 1).wrapping_neg()) as i64
 }
 
@@ -161,9 +162,10 @@ impl CornerCoding {
             .code(&mut self.new[2 * k + self.previous_new], u32::from(!is_new))
             .map_err(past)?
             == 1;
-        let index = if !old {
+        // The vertex, and its position in the window if it is there.
+        let (index, found) = if !old {
             self.next += 1;
-            self.next - 1
+            (self.next - 1, None)
         } else {
             let at = self
                 .window
@@ -175,7 +177,7 @@ impl CornerCoding {
                 .map_err(past)? as usize;
             if at < WINDOW - 1 {
                 match self.window.get(at) {
-                    Some(&w) => u64::from(w),
+                    Some(&w) => (u64::from(w), Some(at)),
                     None => return Err("a corner names a recent vertex that is not there".into()),
                 }
             } else {
@@ -188,19 +190,26 @@ impl CornerCoding {
                     .and_then(|b| b.checked_add(1))
                     .filter(|&b| b <= self.next)
                     .ok_or("a corner refers to a vertex before the first")?;
-                self.next - back
+                let index = self.next - back;
+                // A writer escapes only vertices outside the window; a
+                // hostile stream may name one inside it.
+                let found = self.window.iter().position(|&w| u64::from(w) == index);
+                (index, found)
             }
         };
         self.previous_new = usize::from(!old);
         // Move (or put) the vertex to the front of the window.
         if index <= u64::from(u32::MAX) {
-            let index = index as u32;
-            if let Some(at) = self.window.iter().position(|&w| w == index) {
-                self.window.remove(at);
-            } else if self.window.len() == WINDOW - 1 {
-                self.window.pop();
+            match found {
+                Some(at) => {
+                    self.window.remove(at);
+                }
+                None if self.window.len() == WINDOW - 1 => {
+                    self.window.pop();
+                }
+                None => {}
             }
-            self.window.insert(0, index);
+            self.window.insert(0, index as u32);
         }
         Ok(index)
     }

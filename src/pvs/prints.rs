@@ -15,6 +15,7 @@ use crate::error::{Error, Result};
 use crate::model::MultiPolygon;
 use crate::model::Rect;
 
+use super::mesh::{MAX_GRID_NUMBER, PER_METRE, unzigzag, zigzag};
 use super::rc::{Decoder, Encoder, NumberModel, PROB_INIT, Prob};
 
 /// One object's entry.
@@ -125,7 +126,7 @@ pub fn object_prints(scene: &crate::prepare::Scene) -> Vec<ObjectPrint> {
 /// Grid numbers (1/256 m) of a rectangle, rounded outwards.
 fn rect_numbers(rect: &[f64; 4]) -> [i64; 4] {
     let g = |v: f64, up: bool| {
-        let s = v * 256.0;
+        let s = v * PER_METRE;
         (if up { s.ceil() } else { s.floor() }) as i64
     };
     [
@@ -139,11 +140,8 @@ fn rect_numbers(rect: &[f64; 4]) -> [i64; 4] {
 /// The rectangle a file stores for `rect`: the footprint's rectangle
 /// rounded outwards to the 1/256 m grid (so it still holds the footprint).
 pub fn stored_rect(rect: &[f64; 4]) -> [f64; 4] {
-    rect_numbers(rect).map(|v| v as f64 / 256.0)
+    rect_numbers(rect).map(|v| v as f64 / PER_METRE)
 }
-
-/// Largest grid number of a stored rectangle's side: 2^52.
-const MAX_RECT_NUMBER: i64 = 1 << 52;
 
 /// The models of the list's stream (docs/FORMAT.md, "Objects").
 struct PrintModels {
@@ -160,14 +158,6 @@ impl PrintModels {
             size: [NumberModel::default(), NumberModel::default()],
         }
     }
-}
-
-fn zigzag(d: i64) -> u64 {
-    ((d << 1) ^ (d >> 63)) as u64
-}
-
-fn unzigzag(z: u64) -> i64 {
-    ((z >> 1) ^ (z & 1).wrapping_neg()) as i64
 }
 
 /// Append the list: a varint count (0 = no list, else the object count)
@@ -271,17 +261,17 @@ pub fn read_prints(
             let z = rc.number(&mut m.corner[k]).map_err(past)?.ok_or_else(bad)?;
             let lo = previous_corner[k]
                 .checked_add(unzigzag(z))
-                .filter(|v| v.abs() <= MAX_RECT_NUMBER)
+                .filter(|v| v.abs() <= MAX_GRID_NUMBER)
                 .ok_or_else(bad)?;
             let size = rc.number(&mut m.size[k]).map_err(past)?.ok_or_else(bad)?;
             let hi = i64::try_from(size)
                 .ok()
                 .and_then(|s| lo.checked_add(s))
-                .filter(|v| v.abs() <= MAX_RECT_NUMBER)
+                .filter(|v| v.abs() <= MAX_GRID_NUMBER)
                 .ok_or_else(bad)?;
             previous_corner[k] = lo;
-            rect[k] = lo as f64 / 256.0;
-            rect[k + 2] = hi as f64 / 256.0;
+            rect[k] = lo as f64 / PER_METRE;
+            rect[k + 2] = hi as f64 / PER_METRE;
         }
         out[i as usize] = ObjectPrint {
             object,
