@@ -163,6 +163,22 @@ pub fn rebake(
             .and_modify(|e| *e = None)
             .or_insert(Some(i));
     }
+    // One pass over the old file (each block decoded once): per old cell,
+    // its set mapped to the new numbering by id, or `None` when it holds a
+    // member of X_old (every other member is unchanged, so it is in the new
+    // city under the same id).
+    let mut old_sets: Vec<Option<Vec<u32>>> = Vec::with_capacity(old.cell_count());
+    old.for_each_visible(|_, set| {
+        old_sets.push((!set.iter().any(|&o| changed_old[o as usize])).then(|| {
+            let mut mapped: Vec<u32> = set
+                .iter()
+                .map(|&o| new_ids[old.object_ids()[o as usize].as_str()])
+                .collect();
+            mapped.sort_unstable();
+            mapped
+        }));
+        Ok(())
+    })?;
     // The near field of every sample of a cell lies in the cell's bounding
     // box grown by the near field and a pixel (the window is pixel-aligned).
     let reach = scene.settings.near_field + 2.0 * scene.settings.pixel;
@@ -173,23 +189,15 @@ pub fn rebake(
             stats.cells_new += 1;
             continue;
         };
-        let old_set = old.visible(oc)?;
-        if old_set.iter().any(|&o| changed_old[o as usize]) {
+        let Some(mapped) = old_sets[oc].take() else {
             stats.cells_saw_change += 1;
             continue;
-        }
+        };
         let near = Rect::of_points(t.iter()).grown(reach);
         if rects.iter().any(|r| r.intersects(&near)) {
             stats.cells_near_change += 1;
             continue;
         }
-        // Every member of the old set is unchanged, so it is in the new
-        // city under the same id.
-        let mut mapped: Vec<u32> = old_set
-            .iter()
-            .map(|&o| new_ids[old.object_ids()[o as usize].as_str()])
-            .collect();
-        mapped.sort_unstable();
         candidates.push((c, mapped));
     }
     let t = std::time::Instant::now();

@@ -54,6 +54,10 @@ pub struct Horizon {
     /// per-bin distances are computed (always, except in tests that
     /// compare against adding every chain in full).
     pub skip_hidden: bool,
+    /// The only bins that will be read (unwrapped `lo..=hi`), when the
+    /// caller knows them: a chain whose arc raises none of them is not
+    /// added, which leaves those bins as they would be.
+    interest: Option<(i64, i64)>,
 }
 
 impl Default for Horizon {
@@ -69,6 +73,7 @@ impl Default for Horizon {
                 .collect(),
             group_min: vec![f64::NEG_INFINITY; BINS / GROUP],
             skip_hidden: true,
+            interest: None,
         }
     }
 }
@@ -153,9 +158,20 @@ fn wrap(bin: i64) -> usize {
 }
 
 impl Horizon {
+    /// Back to "nothing is known", every bin of interest.
     pub fn clear(&mut self) {
         self.slopes.fill(f64::NEG_INFINITY);
         self.group_min.fill(f64::NEG_INFINITY);
+        self.interest = None;
+    }
+
+    /// Until the next [`Horizon::clear`], only the bins `bins` (as
+    /// [`rect_bins`] gives them) will be read: every chain raising none of
+    /// them is passed over. The range is grown by a bin on each side, far
+    /// more than any rounding of the pseudo-angles, so it holds the bins of
+    /// every rectangle inside the one `bins` was computed for.
+    pub fn read_only(&mut self, bins: (i64, i64)) {
+        self.interest = Some((bins.0 - 1, bins.1 + 1));
     }
 
     /// Add a chain of connected occluder edges at `height`, given by its
@@ -225,6 +241,9 @@ impl Horizon {
             .sqrt();
         let rise = height - eye;
         if first_full > last_full
+            || self
+                .interest
+                .is_some_and(|bins| !bins_overlap((first_full, last_full), bins))
             || (self.skip_hidden && self.all_at_least(first_full, last_full, rise / nearest))
         {
             return;

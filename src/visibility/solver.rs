@@ -483,7 +483,9 @@ impl<'a> Solver<'a> {
     /// gives a valid, lower horizon), and each rectangle is tested, nearest
     /// first, against the chains nearer than it. So a `true` here implies
     /// that the solver's own horizon test of each rectangle at its distance
-    /// says hidden.
+    /// says hidden. With [`Solver::set_skip_hidden`]`(false)` every ring out
+    /// to each rectangle is swept and every chain added before it is tested
+    /// (the same answers, slower).
     pub fn probe_hidden(&mut self, v: DVec2, objects: &[(Rect, f64)]) -> bool {
         let index = self.index;
         let eye = self.eye;
@@ -528,6 +530,13 @@ impl<'a> Solver<'a> {
         );
         let hull = hull.grown(4.0 * MAX_EDGE_PIECE + 1.0);
         self.horizon.clear();
+        // Only the bins of the rectangles are read below: those of their
+        // union hold them all. (Not with the skips off: then every chain is
+        // added and every ring swept, for tests to compare with.)
+        let skips = self.horizon.skip_hidden;
+        if skips && let Some(bins) = rect_bins(v, &union) {
+            self.horizon.read_only(bins);
+        }
         self.chains.clear();
         let vc = stride_cell(v);
         let max_ring = index.max_bucket_ring(v);
@@ -536,7 +545,18 @@ impl<'a> Solver<'a> {
         let mut result = true;
         for &(r, rect, top, is_union) in &tests {
             let rings = ((r / index.bucket_size()).ceil() as i64 + 1).min(max_ring);
-            while swept < rings {
+            // The rectangle is tested after every ring: the chains nearer
+            // than it found so far are some of those nearer than it, whose
+            // horizon is no lower in any bin, so "hidden" by them is final.
+            // "Not hidden" is final only once every ring out to it is swept.
+            let hidden = loop {
+                ready.clear();
+                self.chains.take_nearer(r, &mut ready);
+                add_ready_chains(&mut self.horizon, index, v, eye, &ready);
+                let hidden = self.horizon.hides_rect_strictly(v, eye, &rect, top);
+                if (hidden && skips) || swept >= rings {
+                    break hidden;
+                }
                 swept += 1;
                 let (chains, horizon) = (&mut self.chains, &self.horizon);
                 index.buckets_in_ring(v, swept, |bucket| {
@@ -555,11 +575,7 @@ impl<'a> Solver<'a> {
                     }
                     queue_bucket_chains(index, v, vc, eye, bucket, chains);
                 });
-            }
-            ready.clear();
-            self.chains.take_nearer(r, &mut ready);
-            add_ready_chains(&mut self.horizon, index, v, eye, &ready);
-            let hidden = self.horizon.hides_rect_strictly(v, eye, &rect, top);
+            };
             if is_union {
                 if hidden {
                     break;

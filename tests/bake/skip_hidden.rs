@@ -78,3 +78,48 @@ proptest! {
         prop_assert!(seen < all);
     }
 }
+
+/// The incremental bake's probe stops at the first ring whose chains
+/// already hide a rectangle and reads only the chains that can raise the
+/// rectangles' bins; with the skips off it sweeps every ring and adds every
+/// chain. Its answers must be the same both ways. Returns how many probes
+/// said hidden and how many not.
+fn compare_probes(scene: &Scene, points: usize) -> (usize, usize) {
+    let params = &scene.settings;
+    let index = SceneIndex::build(&scene.city.buildings, &scene.occluders, params.pixel);
+    let topo = MeshTopology::of(&scene.cells.triangles);
+    let mut fast = Solver::new(&index, params.eye_height, params.near_field);
+    let mut full = Solver::new(&index, params.eye_height, params.near_field);
+    full.set_skip_hidden(false);
+    let objects: Vec<(citypvs::model::Rect, f64)> =
+        index.objects.iter().map(|o| (o.rect, o.height)).collect();
+    let step = (topo.vertices.len() / points.max(1)).max(1);
+    let (mut hidden, mut seen) = (0, 0);
+    for (k, &v) in topo.vertices.iter().step_by(step).enumerate() {
+        // One object, and a few objects spread over the city, per point.
+        let one = vec![objects[(k * 7) % objects.len()]];
+        let some: Vec<_> = (0..4)
+            .map(|j| objects[(k * 13 + j * 31) % objects.len()])
+            .collect();
+        for targets in [one, some] {
+            let a = fast.probe_hidden(v, &targets);
+            let b = full.probe_hidden(v, &targets);
+            assert_eq!(
+                a, b,
+                "point {v:?}, targets {targets:?}: the probe's answers differ"
+            );
+            if a {
+                hidden += 1;
+            } else {
+                seen += 1;
+            }
+        }
+    }
+    (hidden, seen)
+}
+
+#[test]
+fn the_probe_answers_the_same_with_and_without_its_early_stop() {
+    let (hidden, seen) = compare_probes(&crate::common::generated_scene(400, 3), 150);
+    assert!(hidden > 20 && seen > 20, "{hidden} hidden and {seen} not");
+}
