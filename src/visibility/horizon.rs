@@ -170,7 +170,7 @@ impl Horizon {
     /// them is passed over. The range is grown by a bin on each side, far
     /// more than any rounding of the pseudo-angles, so it holds the bins of
     /// every rectangle inside the one `bins` was computed for.
-    pub fn read_only(&mut self, bins: (i64, i64)) {
+    pub fn restrict_to_bins(&mut self, bins: (i64, i64)) {
         self.interest = Some((bins.0 - 1, bins.1 + 1));
     }
 
@@ -231,6 +231,15 @@ impl Horizon {
         // Only the bins wholly inside the chain's arc are raised.
         let first_full = ceil_i64(lo / BIN_WIDTH);
         let last_full = top - 1;
+        // No bin wholly inside the arc, or none that will be read: nothing
+        // to raise (tested before the nearest distance is computed).
+        if first_full > last_full
+            || self
+                .interest
+                .is_some_and(|bins| !bins_overlap((first_full, last_full), bins))
+        {
+            return;
+        }
         // The steepest slope this chain could give; if every bin it would
         // raise is already at least that steep, it adds nothing.
         let nearest = self
@@ -240,12 +249,7 @@ impl Horizon {
             .fold(f64::INFINITY, min_of)
             .sqrt();
         let rise = height - eye;
-        if first_full > last_full
-            || self
-                .interest
-                .is_some_and(|bins| !bins_overlap((first_full, last_full), bins))
-            || (self.skip_hidden && self.all_at_least(first_full, last_full, rise / nearest))
-        {
+        if self.skip_hidden && self.all_at_least(first_full, last_full, rise / nearest) {
             return;
         }
         self.bin_nearness.clear();

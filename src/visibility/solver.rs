@@ -535,7 +535,7 @@ impl<'a> Solver<'a> {
         // added and every ring swept, for tests to compare with.)
         let skips = self.horizon.skip_hidden;
         if skips && let Some(bins) = rect_bins(v, &union) {
-            self.horizon.read_only(bins);
+            self.horizon.restrict_to_bins(bins);
         }
         self.chains.clear();
         let vc = stride_cell(v);
