@@ -85,6 +85,12 @@ pub struct SceneIndex {
     /// Per bucket, the edges whose first point `a` lies in it (clamped to
     /// the grid): the horizon's chains start there and only there.
     bucket_starts: CellLists,
+    /// The same lists, each ordered so that the edges that start a chain
+    /// of stride 4 come first, then those of stride 2, then the rest; per
+    /// bucket, where that list begins and where its stride-4 and stride-2
+    /// prefixes end.
+    strided_starts: Vec<u32>,
+    strided_bounds: Vec<[u32; 3]>,
     /// Greatest occluder height among the edges starting in each bucket (0
     /// when none).
     bucket_heights: Vec<f64>,
@@ -142,6 +148,20 @@ impl SceneIndex {
             (k, k)
         };
         let bucket_starts = CellLists::build(&buckets, edges.len(), start_range);
+        let mut strided_starts = Vec::with_capacity(edges.len());
+        let mut strided_bounds = Vec::with_capacity(buckets.len());
+        for b in bucket_starts.iter() {
+            let begin = strided_starts.len() as u32;
+            let mut ends = [begin; 3];
+            for (k, stride) in [4u32, 2, 1].into_iter().enumerate() {
+                strided_starts.extend(b.iter().copied().filter(|&e| {
+                    let pos = edges[e as usize].ring_pos;
+                    pos.is_multiple_of(stride) && (k == 0 || !pos.is_multiple_of(2 * stride))
+                }));
+                ends[k] = strided_starts.len() as u32;
+            }
+            strided_bounds.push([begin, ends[0], ends[1]]);
+        }
         let bucket_heights: Vec<f64> = bucket_starts
             .iter()
             .map(|b| {
@@ -199,6 +219,8 @@ impl SceneIndex {
             buckets,
             bucket_lists,
             bucket_starts,
+            strided_starts,
+            strided_bounds,
             bucket_heights,
             bucket_chain_rects,
             bucket_nodes,
@@ -236,6 +258,18 @@ impl SceneIndex {
     /// exactly one bucket).
     pub fn bucket_starts(&self, b: usize) -> &[u32] {
         self.bucket_starts.get(b)
+    }
+
+    /// The edges of [`SceneIndex::bucket_starts`] whose position on their
+    /// ring is a multiple of `stride` (1, 2 or 4), in another order.
+    pub fn bucket_starts_strided(&self, b: usize, stride: u32) -> &[u32] {
+        let [begin, four, two] = self.strided_bounds[b];
+        let end = match stride {
+            4 => four,
+            2 => two,
+            _ => begin + self.bucket_starts.get(b).len() as u32,
+        };
+        &self.strided_starts[begin as usize..end as usize]
     }
 
     /// The greatest occluder height among the edges starting in bucket `b`.

@@ -661,6 +661,20 @@ fn queue_bucket_chains(
     bucket: usize,
     chains: &mut ChainQueue,
 ) {
+    // Where the bucket lies in squares of one stride only (most buckets
+    // away from the eye), its chains start at the edges of that stride's
+    // prefix of the bucket's list: the same chains, found without testing
+    // each edge.
+    if let Some(stride) = bucket_stride(vc, &index.bucket_rect(bucket)) {
+        for &e in index.bucket_starts_strided(bucket, stride) {
+            let edge = &index.edges[e as usize];
+            if edge.height > eye {
+                let pieces = stride + 1;
+                chains.push(chain_reach(index, v, e, pieces), e, pieces, bucket as u32);
+            }
+        }
+        return;
+    }
     for &e in index.bucket_starts(bucket) {
         let edge = &index.edges[e as usize];
         let stride = edge_stride(vc, edge.a);

@@ -123,3 +123,34 @@ fn the_probe_answers_the_same_with_and_without_its_early_stop() {
     let (hidden, seen) = compare_probes(&crate::common::generated_scene(400, 3), 150);
     assert!(hidden > 20 && seen > 20, "{hidden} hidden and {seen} not");
 }
+
+/// Each bucket's starts ordered by stride hold, for stride 1, 2 and 4,
+/// exactly the bucket's starts at ring positions that are multiples of the
+/// stride (the sweep hands over that prefix instead of testing each edge).
+#[test]
+fn the_strided_start_lists_hold_exactly_the_starts_of_their_stride() {
+    let scene = crate::common::generated_scene(200, 3);
+    let index = SceneIndex::build(
+        &scene.city.buildings,
+        &scene.occluders,
+        scene.settings.pixel,
+    );
+    let mut counted = [0usize; 3];
+    for b in 0..index.bucket_count() {
+        for (k, stride) in [1u32, 2, 4].into_iter().enumerate() {
+            let mut want: Vec<u32> = index
+                .bucket_starts(b)
+                .iter()
+                .copied()
+                .filter(|&e| index.edges[e as usize].ring_pos.is_multiple_of(stride))
+                .collect();
+            let mut got = index.bucket_starts_strided(b, stride).to_vec();
+            want.sort_unstable();
+            got.sort_unstable();
+            assert_eq!(got, want, "bucket {b}, stride {stride}");
+            counted[k] += got.len();
+        }
+    }
+    // The scene has chains of every stride, and fewer the longer it is.
+    assert!(counted[0] > counted[1] && counted[1] > counted[2] && counted[2] > 0);
+}
