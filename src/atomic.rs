@@ -127,10 +127,18 @@ pub fn check_output(output: &Path, inputs: &[&Path]) -> Result<()> {
 
 /// Write `contents` to `path` following the rules in the module doc.
 pub fn write_atomically(path: &Path, contents: &[u8]) -> Result<()> {
+    write_atomically_with(path, &mut |w| w.write_all(contents))
+}
+
+/// [`write_atomically`] of the bytes that `write` writes, handed out as
+/// they are made (they are never all held at once).
+pub fn write_atomically_with(
+    path: &Path,
+    write: &mut dyn FnMut(&mut dyn Write) -> io::Result<()>,
+) -> Result<()> {
     if is_stdout(path) {
         let mut out = io::stdout().lock();
-        return out
-            .write_all(contents)
+        return write(&mut out)
             .and_then(|()| out.flush())
             .map_err(|e| io_error(path, "cannot write to standard output", e));
     }
@@ -140,18 +148,22 @@ pub fn write_atomically(path: &Path, contents: &[u8]) -> Result<()> {
             "{}: cannot write: it is a folder",
             path.display()
         ))),
-        Ok(m) if !m.is_file() => write_through(path, &target, contents),
-        _ => replace(path, &target, contents),
+        Ok(m) if !m.is_file() => write_through(path, &target, write),
+        _ => replace(path, &target, write),
     }
 }
 
 /// Write into an existing non-regular file (device, FIFO) without replacing it.
-fn write_through(path: &Path, target: &Path, contents: &[u8]) -> Result<()> {
+fn write_through(
+    path: &Path,
+    target: &Path,
+    write: &mut dyn FnMut(&mut dyn Write) -> io::Result<()>,
+) -> Result<()> {
     let mut f = OpenOptions::new()
         .write(true)
         .open(target)
         .map_err(|e| io_error(path, "cannot open for writing", e))?;
-    f.write_all(contents)
+    write(&mut f)
         .and_then(|()| f.flush())
         .map_err(|e| io_error(path, "cannot write", e))
 }
@@ -239,13 +251,16 @@ fn create_tmp(path: &Path, dir: &Path, prefix: &str) -> Result<(PathBuf, File)> 
 }
 
 /// Replace (or create) the regular file `target` atomically.
-fn replace(path: &Path, target: &Path, contents: &[u8]) -> Result<()> {
+fn replace(
+    path: &Path,
+    target: &Path,
+    write: &mut dyn FnMut(&mut dyn Write) -> io::Result<()>,
+) -> Result<()> {
     let dir = folder_of(target);
     let prefix = tmp_prefix(target);
     remove_stale(&dir, &prefix);
     let (tmp, mut file) = create_tmp(path, &dir, &prefix)?;
-    let written = file
-        .write_all(contents)
+    let written = write(&mut file)
         .and_then(|()| file.sync_all())
         .and_then(|()| {
             drop(file);

@@ -15,6 +15,8 @@
 //! small multiple of the payload's size (a hostile length prefix cannot make
 //! it allocate beyond that), and then checks every field.
 
+use std::io::Write;
+
 use bincode::{Decode, Encode};
 use sha2::{Digest, Sha256};
 
@@ -154,6 +156,25 @@ pub struct Part {
     /// A cell that sees every object takes two bytes.
     pub set_lens: Vec<u32>,
     pub set_runs: Vec<u8>,
+}
+
+/// Counts and hashes the bytes written to it.
+#[derive(Default)]
+struct DigestWriter {
+    hasher: Sha256,
+    len: u64,
+}
+
+impl std::io::Write for DigestWriter {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.hasher.update(buf);
+        self.len += buf.len() as u64;
+        Ok(buf.len())
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
 }
 
 fn push_leb128(out: &mut Vec<u8>, v: u32) {
@@ -351,9 +372,25 @@ impl Part {
         Ok(out)
     }
 
-    /// Write the file atomically.
+    /// Write the file atomically: the bytes of [`Part::encode`], made in
+    /// two passes (one to learn the payload's length and digest, one to
+    /// write it) so that no copy of the sets is held beside the part.
     pub fn write(&self, path: &std::path::Path) -> Result<()> {
-        crate::atomic::write_atomically(path, &self.encode()?)
+        let config = bincode::config::standard();
+        let mut digest = DigestWriter::default();
+        bincode::encode_into_std_write(self, &mut digest, config)
+            .map_err(|e| Error::format(format!("cannot encode a part file: {e}")))?;
+        let (len, sha) = (digest.len, digest.hasher.finalize());
+        crate::atomic::write_atomically_with(path, &mut |w| {
+            let mut w = std::io::BufWriter::new(w);
+            w.write_all(&PART_MAGIC)?;
+            w.write_all(&PART_VERSION.to_le_bytes())?;
+            w.write_all(&0u32.to_le_bytes())?;
+            w.write_all(&len.to_le_bytes())?;
+            w.write_all(&sha)?;
+            bincode::encode_into_std_write(self, &mut w, config).map_err(std::io::Error::other)?;
+            w.flush()
+        })
     }
 
     /// Read and check a part file; errors start with the file's name.
@@ -527,6 +564,19 @@ mod tests {
         let q = Part::decode(&p.encode().unwrap()).unwrap();
         assert_eq!(q.sets(), vec![vec![0, 2, 5], vec![], vec![1]]);
         assert_eq!(p.mismatch(&q), None);
+    }
+
+    #[test]
+    fn a_written_part_file_holds_exactly_the_encoded_bytes() {
+        let p = part();
+        let dir = std::env::temp_dir().join(format!("citypvs-part-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("p.part");
+        p.write(&path).unwrap();
+        let written = std::fs::read(&path).unwrap();
+        std::fs::remove_dir_all(&dir).unwrap();
+        assert_eq!(written, p.encode().unwrap());
+        assert_eq!(Part::decode(&written).unwrap().sets(), p.sets());
     }
 
     #[test]

@@ -459,7 +459,23 @@ fn bucket_grid(edges: &[OccluderEdge]) -> UniformGrid {
 pub const MAX_EDGE_PIECE: f64 = 6.0;
 
 fn collect_edges(occluders: &[Occluder]) -> Vec<OccluderEdge> {
-    let mut edges = Vec::new();
+    let rings = || {
+        occluders.iter().flat_map(|occ| {
+            occ.shape
+                .iter()
+                .flat_map(|polygon| std::iter::once(&polygon.exterior).chain(polygon.holes.iter()))
+        })
+    };
+    // Counted first, so the list is allocated once at its size (a list
+    // grown by doubling holds up to twice its edges at its peak).
+    let count: usize = rings()
+        .map(|ring| {
+            (0..ring.len())
+                .map(|i| piece_count(ring[i], ring[(i + 1) % ring.len()], MAX_EDGE_PIECE))
+                .sum::<usize>()
+        })
+        .sum();
+    let mut edges = Vec::with_capacity(count);
     for occ in occluders {
         for polygon in &occ.shape {
             for ring in std::iter::once(&polygon.exterior).chain(polygon.holes.iter()) {
@@ -499,24 +515,34 @@ fn collect_edges(occluders: &[Occluder]) -> Vec<OccluderEdge> {
 /// memory. Nothing else depends on the numbering: the chains and their
 /// order within a bucket are the same, and the near-field map draws the
 /// edges in an order fixed by their coordinates.
-fn in_bucket_order(edges: Vec<OccluderEdge>, buckets: &UniformGrid) -> Vec<OccluderEdge> {
+///
+/// The edges are moved in place (no second copy of the list is held).
+fn in_bucket_order(mut edges: Vec<OccluderEdge>, buckets: &UniformGrid) -> Vec<OccluderEdge> {
     let mut keyed: Vec<(u32, u32)> = (0..edges.len())
         .map(|e| (buckets.index(buckets.key(edges[e].a)) as u32, e as u32))
         .collect();
     keyed.sort_unstable();
-    let order: Vec<u32> = keyed.into_iter().map(|(_, e)| e).collect();
     let mut new_id = vec![0u32; edges.len()];
-    for (n, &e) in order.iter().enumerate() {
+    for (n, &(_, e)) in keyed.iter().enumerate() {
         new_id[e as usize] = n as u32;
     }
-    order
-        .iter()
-        .map(|&e| {
-            let mut edge = edges[e as usize];
-            edge.next = new_id[edge.next as usize];
-            edge
-        })
-        .collect()
+    drop(keyed);
+    for edge in &mut edges {
+        edge.next = new_id[edge.next as usize];
+    }
+    // Follow each cycle of the permutation: every swap puts one edge (and
+    // its destination) in its final place.
+    for start in 0..edges.len() {
+        loop {
+            let target = new_id[start] as usize;
+            if target == start {
+                break;
+            }
+            edges.swap(start, target);
+            new_id.swap(start, target);
+        }
+    }
+    edges
 }
 
 /// Every pixel whose centre lies inside the footprint or within half a
