@@ -248,6 +248,11 @@ impl CellLists {
         &self.items[self.starts[k] as usize..self.starts[k + 1] as usize]
     }
 
+    /// The items of cell `k`, to reorder.
+    pub fn get_mut(&mut self, k: usize) -> &mut [u32] {
+        &mut self.items[self.starts[k] as usize..self.starts[k + 1] as usize]
+    }
+
     /// Every cell's list, by cell index.
     pub fn iter(&self) -> impl Iterator<Item = &[u32]> + '_ {
         self.starts

@@ -360,35 +360,33 @@ impl Part {
 
     /// The file's bytes.
     pub fn encode(&self) -> Result<Vec<u8>> {
-        let payload = bincode::encode_to_vec(self, bincode::config::standard())
+        let mut out = Vec::new();
+        self.write_to(&mut out)
             .map_err(|e| Error::format(format!("cannot encode a part file: {e}")))?;
-        let mut out = Vec::with_capacity(PREAMBLE_BYTES + payload.len());
-        out.extend_from_slice(&PART_MAGIC);
-        out.extend_from_slice(&PART_VERSION.to_le_bytes());
-        out.extend_from_slice(&0u32.to_le_bytes());
-        out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
-        out.extend_from_slice(&Sha256::digest(&payload));
-        out.extend_from_slice(&payload);
         Ok(out)
     }
 
-    /// Write the file atomically: the bytes of [`Part::encode`], made in
-    /// two passes (one to learn the payload's length and digest, one to
-    /// write it) so that no copy of the sets is held beside the part.
-    pub fn write(&self, path: &std::path::Path) -> Result<()> {
+    /// Write the file's bytes to `out` in two passes (one to learn the
+    /// payload's length and digest for the preamble, one to write it), so
+    /// that no copy of the sets is held beside the part.
+    fn write_to(&self, mut out: &mut dyn Write) -> std::io::Result<()> {
         let config = bincode::config::standard();
         let mut digest = DigestWriter::default();
-        bincode::encode_into_std_write(self, &mut digest, config)
-            .map_err(|e| Error::format(format!("cannot encode a part file: {e}")))?;
-        let (len, sha) = (digest.len, digest.hasher.finalize());
+        bincode::encode_into_std_write(self, &mut digest, config).map_err(std::io::Error::other)?;
+        out.write_all(&PART_MAGIC)?;
+        out.write_all(&PART_VERSION.to_le_bytes())?;
+        out.write_all(&0u32.to_le_bytes())?;
+        out.write_all(&digest.len.to_le_bytes())?;
+        out.write_all(&digest.hasher.finalize())?;
+        bincode::encode_into_std_write(self, &mut out, config).map_err(std::io::Error::other)?;
+        Ok(())
+    }
+
+    /// Write the file atomically (see [`Part::write_to`]).
+    pub fn write(&self, path: &std::path::Path) -> Result<()> {
         crate::atomic::write_atomically_with(path, &mut |w| {
             let mut w = std::io::BufWriter::new(w);
-            w.write_all(&PART_MAGIC)?;
-            w.write_all(&PART_VERSION.to_le_bytes())?;
-            w.write_all(&0u32.to_le_bytes())?;
-            w.write_all(&len.to_le_bytes())?;
-            w.write_all(&sha)?;
-            bincode::encode_into_std_write(self, &mut w, config).map_err(std::io::Error::other)?;
+            self.write_to(&mut w)?;
             w.flush()
         })
     }

@@ -83,14 +83,13 @@ pub struct SceneIndex {
     /// Per bucket, the edges whose bounding box overlaps it.
     bucket_lists: CellLists,
     /// Per bucket, the edges whose first point `a` lies in it (clamped to
-    /// the grid): the horizon's chains start there and only there.
+    /// the grid): the horizon's chains start there and only there. Each
+    /// list holds first the edges that start chains of stride 4, then those
+    /// of stride 2, then the rest.
     bucket_starts: CellLists,
-    /// The same lists, each ordered so that the edges that start a chain
-    /// of stride 4 come first, then those of stride 2, then the rest; per
-    /// bucket, where that list begins and where its stride-4 and stride-2
-    /// prefixes end.
-    strided_starts: Vec<u32>,
-    strided_bounds: Vec<[u32; 3]>,
+    /// Per bucket, the lengths of the prefixes of its list for strides 4
+    /// and 2.
+    stride_prefixes: Vec<[u32; 2]>,
     /// Greatest occluder height among the edges starting in each bucket (0
     /// when none).
     bucket_heights: Vec<f64>,
@@ -147,21 +146,22 @@ impl SceneIndex {
             let k = buckets.key(edges[i].a);
             (k, k)
         };
-        let bucket_starts = CellLists::build(&buckets, edges.len(), start_range);
-        let mut strided_starts = Vec::with_capacity(edges.len());
-        let mut strided_bounds = Vec::with_capacity(buckets.len());
-        for b in bucket_starts.iter() {
-            let begin = strided_starts.len() as u32;
-            let mut ends = [begin; 3];
-            for (k, stride) in [4u32, 2, 1].into_iter().enumerate() {
-                strided_starts.extend(b.iter().copied().filter(|&e| {
-                    let pos = edges[e as usize].ring_pos;
-                    pos.is_multiple_of(stride) && (k == 0 || !pos.is_multiple_of(2 * stride))
-                }));
-                ends[k] = strided_starts.len() as u32;
-            }
-            strided_bounds.push([begin, ends[0], ends[1]]);
-        }
+        let mut bucket_starts = CellLists::build(&buckets, edges.len(), start_range);
+        // The longest stride an edge starts chains of: 4 (class 0), 2 (1)
+        // or 1 (2). A stable sort keeps the order within a class.
+        let class = |e: &u32| match edges[*e as usize].ring_pos {
+            p if p.is_multiple_of(4) => 0,
+            p if p.is_multiple_of(2) => 1,
+            _ => 2,
+        };
+        let stride_prefixes: Vec<[u32; 2]> = (0..buckets.len())
+            .map(|b| {
+                let list = bucket_starts.get_mut(b);
+                list.sort_by_key(class);
+                let prefix = |c| list.partition_point(|e| class(e) <= c) as u32;
+                [prefix(0), prefix(1)]
+            })
+            .collect();
         let bucket_heights: Vec<f64> = bucket_starts
             .iter()
             .map(|b| {
@@ -219,8 +219,7 @@ impl SceneIndex {
             buckets,
             bucket_lists,
             bucket_starts,
-            strided_starts,
-            strided_bounds,
+            stride_prefixes,
             bucket_heights,
             bucket_chain_rects,
             bucket_nodes,
@@ -261,15 +260,15 @@ impl SceneIndex {
     }
 
     /// The edges of [`SceneIndex::bucket_starts`] whose position on their
-    /// ring is a multiple of `stride` (1, 2 or 4), in another order.
+    /// ring is a multiple of `stride` (1, 2 or 4): a prefix of that list.
     pub fn bucket_starts_strided(&self, b: usize, stride: u32) -> &[u32] {
-        let [begin, four, two] = self.strided_bounds[b];
-        let end = match stride {
-            4 => four,
-            2 => two,
-            _ => begin + self.bucket_starts.get(b).len() as u32,
-        };
-        &self.strided_starts[begin as usize..end as usize]
+        let starts = self.bucket_starts.get(b);
+        let [four, two] = self.stride_prefixes[b];
+        match stride {
+            4 => &starts[..four as usize],
+            2 => &starts[..two as usize],
+            _ => starts,
+        }
     }
 
     /// The greatest occluder height among the edges starting in bucket `b`.
@@ -459,50 +458,49 @@ fn bucket_grid(edges: &[OccluderEdge]) -> UniformGrid {
 pub const MAX_EDGE_PIECE: f64 = 6.0;
 
 fn collect_edges(occluders: &[Occluder]) -> Vec<OccluderEdge> {
+    // Every ring of every occluder, with the occluder's height.
     let rings = || {
         occluders.iter().flat_map(|occ| {
-            occ.shape
-                .iter()
-                .flat_map(|polygon| std::iter::once(&polygon.exterior).chain(polygon.holes.iter()))
+            occ.shape.iter().flat_map(move |polygon| {
+                std::iter::once(&polygon.exterior)
+                    .chain(polygon.holes.iter())
+                    .map(move |ring| (occ.height, ring))
+            })
         })
     };
     // Counted first, so the list is allocated once at its size (a list
     // grown by doubling holds up to twice its edges at its peak).
     let count: usize = rings()
-        .map(|ring| {
+        .map(|(_, ring)| {
             (0..ring.len())
                 .map(|i| piece_count(ring[i], ring[(i + 1) % ring.len()], MAX_EDGE_PIECE))
                 .sum::<usize>()
         })
         .sum();
     let mut edges = Vec::with_capacity(count);
-    for occ in occluders {
-        for polygon in &occ.shape {
-            for ring in std::iter::once(&polygon.exterior).chain(polygon.holes.iter()) {
-                let start = edges.len() as u32;
-                let mut ring_pos = 0;
-                for (i, &a) in ring.iter().enumerate() {
-                    let b = ring[(i + 1) % ring.len()];
-                    let pieces = piece_count(a, b, MAX_EDGE_PIECE);
-                    let mut from = a;
-                    for q in cut_points(a, b, pieces).skip(1) {
-                        let p = std::mem::replace(&mut from, q);
-                        let next = edges.len() as u32 + 1;
-                        edges.push(OccluderEdge {
-                            a: p,
-                            b: q,
-                            height: occ.height,
-                            next,
-                            ring_pos,
-                        });
-                        ring_pos += 1;
-                    }
-                }
-                // Close the ring: the last piece continues with the first.
-                if let Some(last) = edges.last_mut() {
-                    last.next = start;
-                }
+    for (height, ring) in rings() {
+        let start = edges.len() as u32;
+        let mut ring_pos = 0;
+        for (i, &a) in ring.iter().enumerate() {
+            let b = ring[(i + 1) % ring.len()];
+            let pieces = piece_count(a, b, MAX_EDGE_PIECE);
+            let mut from = a;
+            for q in cut_points(a, b, pieces).skip(1) {
+                let p = std::mem::replace(&mut from, q);
+                let next = edges.len() as u32 + 1;
+                edges.push(OccluderEdge {
+                    a: p,
+                    b: q,
+                    height,
+                    next,
+                    ring_pos,
+                });
+                ring_pos += 1;
             }
+        }
+        // Close the ring: the last piece continues with the first.
+        if let Some(last) = edges.last_mut() {
+            last.next = start;
         }
     }
     edges

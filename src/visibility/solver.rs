@@ -573,7 +573,8 @@ impl<'a> Solver<'a> {
                     {
                         return;
                     }
-                    queue_bucket_chains(index, v, vc, eye, bucket, chains);
+                    let stride = bucket_stride(vc, &index.bucket_rect(bucket));
+                    queue_bucket_chains(index, v, vc, eye, (bucket, stride), chains);
                 });
             };
             if is_union {
@@ -652,24 +653,24 @@ impl<'a> Solver<'a> {
 
 /// Distance from `v` to the nearest point of `rect` (0 inside).
 /// Queue every chain that starts in `bucket` (at the pieces its stride
-/// picks, from the absolute square `vc` of the eye) with its reach.
+/// picks, from the absolute square `vc` of the eye) with its reach;
+/// `stride` is the bucket's [`bucket_stride`] from `vc`.
 fn queue_bucket_chains(
     index: &SceneIndex,
     v: DVec2,
     vc: (i64, i64),
     eye: f64,
-    bucket: usize,
+    (bucket, stride): (usize, Option<u32>),
     chains: &mut ChainQueue,
 ) {
     // Where the bucket lies in squares of one stride only (most buckets
     // away from the eye), its chains start at the edges of that stride's
     // prefix of the bucket's list: the same chains, found without testing
     // each edge.
-    if let Some(stride) = bucket_stride(vc, &index.bucket_rect(bucket)) {
+    if let Some(stride) = stride {
+        let pieces = stride + 1;
         for &e in index.bucket_starts_strided(bucket, stride) {
-            let edge = &index.edges[e as usize];
-            if edge.height > eye {
-                let pieces = stride + 1;
+            if index.edges[e as usize].height > eye {
                 chains.push(chain_reach(index, v, e, pieces), e, pieces, bucket as u32);
             }
         }
@@ -753,14 +754,14 @@ impl Sweep<'_, '_> {
         // rectangle and is no higher than the bucket's highest edge: if
         // that is all below the horizon already, no chain of the bucket can
         // raise it (the horizon only grows).
-        let reach =
-            index.bucket_chain_rect(bucket, bucket_stride(self.vc, &index.bucket_rect(bucket)));
+        let stride = bucket_stride(self.vc, &index.bucket_rect(bucket));
+        let reach = index.bucket_chain_rect(bucket, stride);
         if reach.is_empty()
             || (self.horizon.skip_hidden && self.horizon.hides_rect(v, eye, reach, height))
         {
             return;
         }
-        queue_bucket_chains(index, v, self.vc, eye, bucket, self.chains);
+        queue_bucket_chains(index, v, self.vc, eye, (bucket, stride), self.chains);
     }
 
     /// Where the stretch of buckets from `i` onwards that shares nodes of
