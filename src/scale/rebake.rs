@@ -11,7 +11,9 @@
 //! keeps the old cell's set when (1) no old version of X is in it, (2) no
 //! rectangle of X (old or new) comes within the near field of the cell, and
 //! (3) every new version of X is hidden from every sample of the cell by the
-//! new scene's horizon, with a rounding margin.
+//! new scene's horizon, with a rounding margin. A cell that passes (2) but
+//! not (1) or (3) keeps the verdicts of the objects whose directions miss
+//! X's rectangles from all its samples, and is solved for the others only.
 
 use std::collections::HashMap;
 use std::path::Path;
@@ -20,7 +22,7 @@ use crate::error::{Error, Result};
 use crate::model::Rect;
 use crate::prepare::Scene;
 use crate::pvs::PvsReader;
-use crate::visibility::{SolveStats, VisibilityEngine};
+use crate::visibility::{SolveStats, VisibilityEngine, WantedObjects};
 
 /// What an incremental bake did, for `bake --json`.
 #[derive(Clone, Debug, Default, serde::Serialize)]
@@ -45,6 +47,11 @@ pub struct RebakeStats {
     /// cell by cell (a different frame, ids that are not unique).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub full_because: Option<String>,
+    /// Cells (of those above, except the ones near a change) solved again
+    /// only for the objects in the directions of a changed object, and the
+    /// sum over them of how many objects that is.
+    pub cells_solved_in_part: usize,
+    pub objects_solved_in_part: usize,
     /// Seconds spent probing.
     pub probe_seconds: f64,
 }
@@ -141,6 +148,7 @@ pub fn rebake(
         }
     }
     let mut probes: Vec<(Rect, f64)> = Vec::new();
+    let mut probe_objects: Vec<u32> = Vec::new();
     for (j, b) in scene.city.buildings.iter().enumerate() {
         let same = old_ids.get(b.id.as_str()).is_some_and(|&i| {
             let (a, n) = (&old_prints[i as usize], &new_prints[j]);
@@ -150,6 +158,7 @@ pub fn rebake(
             let r = new_prints[j].rect();
             rects.push(r);
             probes.push((r, b.height));
+            probe_objects.push(j as u32);
         }
     }
     stats.objects_changed_old = changed_old.iter().filter(|&&c| c).count();
@@ -164,33 +173,31 @@ pub fn rebake(
             .or_insert(Some(i));
     }
     // One pass over the old file (each block decoded once): per old cell,
-    // its set mapped to the new numbering by id, or `None` when it holds a
-    // member of X_old (every other member is unchanged, so it is in the new
-    // city under the same id).
-    let mut old_sets: Vec<Option<Vec<u32>>> = Vec::with_capacity(old.cell_count());
+    // whether it holds a member of X_old, and its set mapped to the new
+    // numbering by id (an object that is gone is left out; every member
+    // outside X is in the new city under the same id).
+    let mut old_sets: Vec<(bool, Vec<u32>)> = Vec::with_capacity(old.cell_count());
     old.for_each_visible(|_, set| {
-        old_sets.push((!set.iter().any(|&o| changed_old[o as usize])).then(|| {
-            let mut mapped: Vec<u32> = set
-                .iter()
-                .map(|&o| new_ids[old.object_ids()[o as usize].as_str()])
-                .collect();
-            mapped.sort_unstable();
-            mapped
-        }));
+        let saw = set.iter().any(|&o| changed_old[o as usize]);
+        let mut mapped: Vec<u32> = set
+            .iter()
+            .filter_map(|&o| new_ids.get(old.object_ids()[o as usize].as_str()).copied())
+            .collect();
+        mapped.sort_unstable();
+        old_sets.push((saw, mapped));
         Ok(())
     })?;
     // The near field of every sample of a cell lies in the cell's bounding
     // box grown by the near field and a pixel (the window is pixel-aligned).
     let reach = scene.settings.near_field + 2.0 * scene.settings.pixel;
     let mut sets: Vec<Option<Vec<u32>>> = vec![None; cells.len()];
+    // Cells to probe, and cells to solve again for the objects in X's
+    // directions only, with their old sets.
     let mut candidates: Vec<(usize, Vec<u32>)> = Vec::new();
+    let mut in_part: Vec<(usize, Vec<u32>)> = Vec::new();
     for (c, t) in cells.iter().enumerate() {
         let Some(&Some(oc)) = old_cell.get(&super::diff::cell_key(t)) else {
             stats.cells_new += 1;
-            continue;
-        };
-        let Some(mapped) = old_sets[oc].take() else {
-            stats.cells_saw_change += 1;
             continue;
         };
         let near = Rect::of_points(t.iter()).grown(reach);
@@ -198,8 +205,15 @@ pub fn rebake(
             stats.cells_near_change += 1;
             continue;
         }
-        candidates.push((c, mapped));
+        let (saw, mapped) = std::mem::take(&mut old_sets[oc]);
+        if saw {
+            stats.cells_saw_change += 1;
+            in_part.push((c, mapped));
+        } else {
+            candidates.push((c, mapped));
+        }
     }
+    drop(old_sets);
     let t = std::time::Instant::now();
     let list: Vec<usize> = candidates.iter().map(|(c, _)| *c).collect();
     let hidden = engine.probe_cells(&list, &probes);
@@ -209,12 +223,58 @@ pub fn rebake(
             sets[c] = Some(set);
         } else {
             stats.cells_probe_failed += 1;
+            in_part.push((c, set));
         }
     }
-    let todo: Vec<usize> = (0..cells.len()).filter(|&c| sets[c].is_none()).collect();
-    stats.cells_recomputed = todo.len();
-    stats.cells_copied = cells.len() - todo.len();
+    // A cell outside X's near field keeps the verdicts of every object
+    // whose directions miss X's rectangles at all its samples; the others
+    // are solved again.
+    in_part.sort_unstable_by_key(|(c, _)| *c);
+    let list: Vec<usize> = in_part.iter().map(|(c, _)| *c).collect();
+    let wanted = engine.objects_in_directions(&list, &rects, &probe_objects);
+    let mut part_cells = Vec::new();
+    let mut part_wanted = Vec::new();
+    let mut part_kept = Vec::new();
+    for ((c, old_set), wanted) in in_part.into_iter().zip(wanted) {
+        // A sample inside a rectangle of X is within its near field, so this
+        // does not happen; should it, the cell is solved in full.
+        let Some(wanted) = wanted else { continue };
+        // An object the old cell did not see was hidden at every sample, so
+        // it can only be seen now from a sample in whose changed directions
+        // it lies; one it saw, or a changed object, is tested at every one.
+        let mut w = WantedObjects::default();
+        for o in wanted {
+            if old_set.binary_search(&o).is_ok() || probe_objects.binary_search(&o).is_ok() {
+                w.everywhere.push(o);
+            } else {
+                w.where_changed.push(o);
+            }
+        }
+        let kept: Vec<u32> = old_set
+            .into_iter()
+            .filter(|o| w.everywhere.binary_search(o).is_err())
+            .collect();
+        part_cells.push(c);
+        part_wanted.push(w);
+        part_kept.push(kept);
+    }
+    stats.cells_solved_in_part = part_cells.len();
+    stats.objects_solved_in_part = part_wanted
+        .iter()
+        .map(|w| w.everywhere.len() + w.where_changed.len())
+        .sum();
+    let todo: Vec<usize> = (0..cells.len())
+        .filter(|&c| sets[c].is_none() && part_cells.binary_search(&c).is_err())
+        .collect();
+    stats.cells_recomputed = todo.len() + part_cells.len();
+    stats.cells_copied = cells.len() - stats.cells_recomputed;
     progress(stats.cells_copied as u64);
+    let seen = engine.solve_cells_for(&part_cells, &part_wanted, &rects, progress);
+    for ((c, mut kept), seen) in part_cells.into_iter().zip(part_kept).zip(seen) {
+        kept.extend(seen);
+        kept.sort_unstable();
+        sets[c] = Some(kept);
+    }
     let (solved, solve) = engine.solve_cell_list(&todo, progress);
     for (c, set) in todo.into_iter().zip(solved) {
         sets[c] = Some(set);

@@ -24,6 +24,20 @@ impl ObjectSet {
         self.words.fill(0);
     }
 
+    /// Make the members exactly `0..len` (`len` at most the capacity).
+    pub fn fill(&mut self, len: usize) {
+        self.words.fill(0);
+        let (whole, rest) = (len / 64, len % 64);
+        self.words[..whole].fill(u64::MAX);
+        if rest > 0 {
+            self.words[whole] = (1 << rest) - 1;
+        }
+    }
+
+    pub fn remove(&mut self, i: usize) {
+        self.words[i / 64] &= !(1 << (i % 64));
+    }
+
     pub fn insert(&mut self, i: usize) {
         self.words[i / 64] |= 1 << (i % 64);
     }
@@ -74,5 +88,10 @@ mod tests {
         assert_eq!(a.to_vec(), vec![3, 64, 129]);
         assert_eq!(a.count(), 3);
         assert!(a.contains(64) && !a.contains(65));
+        a.remove(64);
+        assert_eq!(a.to_vec(), vec![3, 129]);
+        a.fill(66);
+        assert_eq!(a.count(), 66);
+        assert!(a.contains(65) && !a.contains(66));
     }
 }

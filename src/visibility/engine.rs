@@ -26,9 +26,10 @@ use glam::{DVec2, DVec3};
 use rayon::prelude::*;
 
 use super::bitset::ObjectSet;
+use super::horizon::{Cover, bins_overlap, covering_bins, rect_bins};
 use super::index::SceneIndex;
 use super::samples::{MeshTopology, cell_sample_points};
-use super::solver::Solver;
+use super::solver::{Solver, rect_distance};
 use crate::error::{Error, Result};
 use crate::model::Rect;
 use crate::prepare::Scene;
@@ -393,6 +394,170 @@ impl<'a> VisibilityEngine<'a> {
             .collect()
     }
 
+    /// For each cell of `cells`, the objects that, seen from some sample of
+    /// the cell, lie in the directions of a change ([`ChangeDirections`]),
+    /// together with `always`: ascending. `None` for a cell with a sample
+    /// in one of the rectangles. Only those objects can get another verdict
+    /// at the cell's samples when chains inside the rectangles come or go
+    /// (docs/DESIGN.md, "Incremental bakes").
+    pub fn objects_in_directions(
+        &self,
+        cells: &[usize],
+        changed: &[Rect],
+        always: &[u32],
+    ) -> Vec<Option<Vec<u32>>> {
+        let index = &self.index;
+        cells
+            .par_iter()
+            .map_init(
+                || ObjectSet::new(self.objects),
+                |marks, &cell| {
+                    marks.clear();
+                    let mut stack = Vec::new();
+                    for unit in self.cell_units(cell) {
+                        for p in self.unit_points(unit) {
+                            let dirs = ChangeDirections::at(p, changed)?;
+                            stack.extend(index.root);
+                            while let Some(n) = stack.pop() {
+                                let node = &index.pyramid[n as usize];
+                                if !dirs.may_hold(&node.rect) {
+                                    continue;
+                                }
+                                stack.extend(&node.children);
+                                for &o in &node.objects {
+                                    if !marks.contains(o as usize)
+                                        && dirs.holds(&index.objects[o as usize].rect)
+                                    {
+                                        marks.insert(o as usize);
+                                    }
+                                }
+                            }
+                        }
+                    }
+                    for &o in always {
+                        marks.insert(o as usize);
+                    }
+                    Some(marks.to_vec())
+                },
+            )
+            .collect()
+    }
+
+    /// For each cell of `cells`, those objects of `wanted[i]` that some
+    /// sample of the cell does not hide, where the objects of `everywhere`
+    /// are tested at every sample and those of `where_changed` only at the
+    /// samples from which they lie in the directions of a rectangle of
+    /// `changed` ([`ChangeDirections::holds`]). Each unit is solved once,
+    /// for the objects its cells want, reading at each sample only the bins
+    /// that cover the objects it still has to decide there
+    /// ([`Solver::solve_point_for`]). `progress` is called with 1 per cell.
+    pub fn solve_cells_for(
+        &self,
+        cells: &[usize],
+        wanted: &[WantedObjects],
+        changed: &[Rect],
+        progress: &(dyn Fn(u64) + Sync),
+    ) -> Vec<Vec<u32>> {
+        let mut out = Vec::with_capacity(cells.len());
+        for (chunk, wanted) in cells.chunks(CHUNK_CELLS).zip(wanted.chunks(CHUNK_CELLS)) {
+            let mut of: HashMap<UnitId, WantedObjects> = HashMap::new();
+            for (&c, w) in chunk.iter().zip(wanted) {
+                for u in self.cell_units(c) {
+                    let entry = of.entry(u).or_default();
+                    entry.everywhere.extend(&w.everywhere);
+                    entry.where_changed.extend(&w.where_changed);
+                }
+            }
+            let mut units: Vec<(UnitId, WantedObjects)> = of
+                .into_iter()
+                .map(|(u, mut w)| {
+                    w.everywhere.sort_unstable();
+                    w.everywhere.dedup();
+                    w.where_changed.sort_unstable();
+                    w.where_changed.dedup();
+                    let everywhere = &w.everywhere;
+                    w.where_changed
+                        .retain(|o| everywhere.binary_search(o).is_err());
+                    (u, w)
+                })
+                .collect();
+            units.sort_unstable_by_key(|(u, _)| *u);
+            let seen: Vec<Vec<u32>> = units
+                .par_iter()
+                .map_init(
+                    || (self.solver(), ObjectSet::new(self.objects)),
+                    |(solver, set), (unit, w)| self.solve_unit_for(solver, set, *unit, w, changed),
+                )
+                .collect();
+            let seen: HashMap<UnitId, Vec<u32>> =
+                units.into_iter().map(|(u, _)| u).zip(seen).collect();
+            let done: Vec<Vec<u32>> = chunk
+                .par_iter()
+                .zip(wanted)
+                .map(|(&c, w)| {
+                    let mut set: Vec<u32> = self
+                        .cell_units(c)
+                        .iter()
+                        .flat_map(|u| seen[u].iter().copied())
+                        .filter(|o| {
+                            w.everywhere.binary_search(o).is_ok()
+                                || w.where_changed.binary_search(o).is_ok()
+                        })
+                        .collect();
+                    set.sort_unstable();
+                    set.dedup();
+                    progress(1);
+                    set
+                })
+                .collect();
+            out.extend(done);
+        }
+        out
+    }
+
+    /// The objects of `w` not hidden from some point of `unit` at which
+    /// they are tested (see [`Self::solve_cells_for`]), ascending. At each
+    /// point every other object counts as decided, and so does each one
+    /// already seen.
+    fn solve_unit_for(
+        &self,
+        solver: &mut Solver,
+        set: &mut ObjectSet,
+        unit: UnitId,
+        w: &WantedObjects,
+        changed: &[Rect],
+    ) -> Vec<u32> {
+        let mut seen: Vec<u32> = Vec::new();
+        let mut todo: Vec<u32> = Vec::new();
+        let rect = |o: u32| &self.index.objects[o as usize].rect;
+        for p in self.unit_points(unit) {
+            todo.clear();
+            todo.extend(w.everywhere.iter().copied().filter(|o| !seen.contains(o)));
+            if !w.where_changed.is_empty() {
+                // A sample inside a changed rectangle tests them all.
+                let dirs = ChangeDirections::at(p, changed);
+                todo.extend(w.where_changed.iter().copied().filter(|&o| {
+                    !seen.contains(&o) && dirs.as_ref().is_none_or(|d| d.holds(rect(o)))
+                }));
+            }
+            if todo.is_empty() {
+                continue;
+            }
+            let interest = match covering_bins(p, todo.iter().map(|&o| rect(o))) {
+                Cover::Bins(lo, hi) => Some((lo, hi)),
+                Cover::Nothing | Cover::Everything => None,
+            };
+            set.fill(self.objects);
+            for &o in &todo {
+                set.remove(o as usize);
+            }
+            solver.solve_point_for(p, interest, &todo, set);
+            seen.extend(todo.iter().copied().filter(|&o| set.contains(o as usize)));
+        }
+        seen.sort_unstable();
+        seen
+    }
+
     /// The PVS of each cell of `cells` (ascending object indices), in the
     /// order given: the sets [`VisibilityEngine::solve_cells`] gives those
     /// cells. Cells are taken in chunks of [`CHUNK_CELLS`]; the units of a
@@ -512,6 +677,62 @@ impl<'a> VisibilityEngine<'a> {
 /// Refuse, before building anything, a scene whose indexes would not fit:
 /// an extent beyond [`MAX_EXTENT`] or object footprints covering more than
 /// [`MAX_FOOTPRINT_PIXELS`] pixels at the settings' pixel size.
+/// The objects an incremental bake solves a cell again for: those tested
+/// at every sample, and those tested only at the samples from which they
+/// lie in the directions of a change (both ascending).
+#[derive(Clone, Debug, Default)]
+pub struct WantedObjects {
+    pub everywhere: Vec<u32>,
+    pub where_changed: Vec<u32>,
+}
+
+/// Seen from one point, the directions of a set of changed rectangles:
+/// per rectangle its bins (of [`rect_bins`], grown by a bin on each side)
+/// and its nearest distance.
+pub struct ChangeDirections {
+    p: DVec2,
+    dirs: Vec<(i64, i64, f64)>,
+}
+
+impl ChangeDirections {
+    /// `None` when `p` is in one of the rectangles.
+    pub fn at(p: DVec2, changed: &[Rect]) -> Option<Self> {
+        let dirs = changed
+            .iter()
+            .map(|r| rect_bins(p, r).map(|(a, b)| (a - 1, b + 1, rect_distance(p, r))))
+            .collect::<Option<Vec<_>>>()?;
+        Some(ChangeDirections { p, dirs })
+    }
+
+    /// Whether an object with this rectangle lies farther than some changed
+    /// rectangle, in bins that meet its grown bins: only then can a chain
+    /// inside that rectangle be in the object's horizon and raise one of
+    /// the bins its test reads (a chain enters before an item only when it
+    /// is nearer, and raises only bins inside its rectangle's).
+    pub fn holds(&self, rect: &Rect) -> bool {
+        let Some(bins) = rect_bins(self.p, rect) else {
+            return true;
+        };
+        let d = rect_distance(self.p, rect);
+        self.dirs
+            .iter()
+            .any(|&(a, b, near)| d > near && bins_overlap(bins, (a, b)))
+    }
+
+    /// Whether a pyramid node with this rectangle may hold an object that
+    /// [`Self::holds`]: its bins, grown by one more bin against rounding,
+    /// meet those of a changed rectangle (the bins of everything below a
+    /// node lie in the node's).
+    pub fn may_hold(&self, rect: &Rect) -> bool {
+        let Some(bins) = rect_bins(self.p, rect) else {
+            return true;
+        };
+        self.dirs
+            .iter()
+            .any(|&(a, b, _)| bins_overlap(bins, (a - 1, b + 1)))
+    }
+}
+
 fn check_index_size(scene: &Scene, settings: &Settings) -> Result<()> {
     let mut bounds = Rect::EMPTY;
     for t in &scene.cells.triangles {

@@ -169,7 +169,9 @@ impl Horizon {
     /// [`rect_bins`] gives them) will be read: every chain raising none of
     /// them is passed over. The range is grown by a bin on each side, far
     /// more than any rounding of the pseudo-angles, so it holds the bins of
-    /// every rectangle inside the one `bins` was computed for.
+    /// every rectangle inside the one `bins` was computed for. The rectangle
+    /// tests then answer for those bins only: a rectangle "hidden" in them
+    /// holds nothing (an object, a chain) that a later read of them can see.
     pub fn restrict_to_bins(&mut self, bins: (i64, i64)) {
         self.interest = Some((bins.0 - 1, bins.1 + 1));
     }
@@ -373,7 +375,19 @@ impl Horizon {
         } else {
             need
         };
-        self.all_at_least(lo, hi, need)
+        let Some((a, b)) = self.interest else {
+            return self.all_at_least(lo, hi, need);
+        };
+        // Only the bins of interest will be read: the rectangle is tested
+        // over those of its bins (none: nothing there can be seen in them).
+        let n = BINS as i64;
+        if b - a + 1 >= n {
+            return self.all_at_least(lo, hi, need);
+        }
+        [-n, 0, n].iter().all(|&k| {
+            let (from, to) = (lo.max(a + k), hi.min(b + k));
+            from > to || self.all_at_least(from, to, need)
+        })
     }
 
     /// Whether every bin of `lo..=hi` (unwrapped) has a slope of at least
@@ -439,18 +453,126 @@ fn corners(rect: &Rect) -> [DVec2; 4] {
     ]
 }
 
-/// Whether two bin ranges of [`rect_bins`] share a bin (modulo a turn).
+/// Which directions a set of rectangles covers, seen from a point.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Cover {
+    /// There is no rectangle.
+    Nothing,
+    /// The shortest range of bins (as [`rect_bins`] gives them) that holds
+    /// the bins of every rectangle.
+    Bins(i64, i64),
+    /// No range short of a turn holds them all (or the point is in one).
+    Everything,
+}
+
+/// The directions from `v` that the rectangles `rects` cover.
+pub fn covering_bins<'r>(v: DVec2, rects: impl Iterator<Item = &'r Rect>) -> Cover {
+    let n = BINS as i64;
+    let mut covered = vec![false; BINS];
+    let mut any = false;
+    for rect in rects {
+        let Some((lo, hi)) = rect_bins(v, rect) else {
+            return Cover::Everything;
+        };
+        if hi - lo + 1 >= n {
+            return Cover::Everything;
+        }
+        any = true;
+        for b in lo..=hi {
+            covered[wrap(b)] = true;
+        }
+    }
+    if !any {
+        return Cover::Nothing;
+    }
+    // The longest run of uncovered bins, going round once from a covered
+    // bin; the range is the rest of the turn.
+    let start = covered.iter().position(|&c| c).expect("a bin is covered") as i64;
+    let (mut best, mut best_end, mut run) = (0i64, start, 0i64);
+    for k in 1..=n {
+        if covered[wrap(start + k)] {
+            if run > best {
+                best = run;
+                best_end = start + k;
+            }
+            run = 0;
+        } else {
+            run += 1;
+        }
+    }
+    if best == 0 {
+        return Cover::Everything;
+    }
+    // Bins best_end .. best_end + (n - best) - 1 hold every covered bin.
+    let lo = best_end.rem_euclid(n);
+    Cover::Bins(lo, lo + n - best - 1)
+}
+
+/// Whether two ranges of bins (`lo..=hi`, unwrapped: any integers) share a
+/// bin modulo a turn.
 pub fn bins_overlap(a: (i64, i64), b: (i64, i64)) -> bool {
     let n = BINS as i64;
     if a.1 - a.0 + 1 >= n || b.1 - b.0 + 1 >= n {
         return true;
     }
+    // Both shifted by whole turns to start in 0..n (a chain's unwrapped
+    // bins may lie a turn or more from a rectangle's), so they meet modulo
+    // a turn exactly when they meet shifted by -n, 0 or n.
+    let start = |r: (i64, i64)| {
+        let lo = r.0.rem_euclid(n);
+        (lo, lo + r.1 - r.0)
+    };
+    let (a, b) = (start(a), start(b));
     [-n, 0, n].iter().any(|&k| b.0 + k <= a.1 && a.0 <= b.1 + k)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn bin_ranges_meet_modulo_a_turn_however_far_they_are_unwrapped() {
+        let n = BINS as i64;
+        // A chain unwrapped below zero against a range reaching past a turn.
+        assert!(bins_overlap((-1150, -1100), (1760, 3509)));
+        assert!(!bins_overlap(
+            (-1150 + 2 * n, -1100 + 2 * n),
+            (1760, 1760 + 200)
+        ));
+        assert!(bins_overlap((5 - 3 * n, 9 - 3 * n), (9, 12)));
+        assert!(!bins_overlap((5 - 3 * n, 9 - 3 * n), (10, 12)));
+        assert!(bins_overlap((n - 2, n + 3), (0, 0)));
+    }
+
+    #[test]
+    fn the_covering_range_holds_every_rectangle_and_skips_the_largest_gap() {
+        let at = |x: f64, y: f64| Rect {
+            min: DVec2::new(x - 1.0, y - 1.0),
+            max: DVec2::new(x + 1.0, y + 1.0),
+        };
+        let v = DVec2::ZERO;
+        // East and north: a quarter turn, not the three quarters round.
+        let rects = [at(50.0, 0.0), at(0.0, 50.0)];
+        let Cover::Bins(lo, hi) = covering_bins(v, rects.iter()) else {
+            panic!("a quarter turn is covered")
+        };
+        for r in &rects {
+            let (a, b) = rect_bins(v, r).unwrap();
+            assert!(bins_overlap((a, b), (lo, hi)));
+            // Every bin of it is in the range, modulo a turn.
+            let n = BINS as i64;
+            for bin in a..=b {
+                let shifted = lo + (bin - lo).rem_euclid(n);
+                assert!(shifted <= hi, "bin {bin} outside {lo}..{hi}");
+            }
+        }
+        assert!(hi - lo < BINS as i64 / 4 + 40, "{lo}..{hi}");
+        // Four directions a quarter apart still leave a gap.
+        let four = [at(50.0, 0.0), at(0.0, 50.0), at(-50.0, 0.0), at(0.0, -50.0)];
+        assert!(matches!(covering_bins(v, four.iter()), Cover::Bins(..)));
+        assert_eq!(covering_bins(v, [].iter()), Cover::Nothing);
+        assert_eq!(covering_bins(v, [at(0.5, 0.0)].iter()), Cover::Everything);
+    }
 
     #[test]
     fn a_long_wall_hides_a_lower_house_behind_it_but_not_a_tower() {

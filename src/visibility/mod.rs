@@ -21,5 +21,5 @@ pub mod solver;
 
 pub use engine::{
     CHUNK_CELLS, CullMapImage, MAX_EXTENT, MAX_FOOTPRINT_PIXELS, MAX_PICTURE_PIXELS, SolveStats,
-    VisibilityEngine,
+    VisibilityEngine, WantedObjects,
 };

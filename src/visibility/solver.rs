@@ -291,8 +291,38 @@ impl<'a> Solver<'a> {
             self.refresh_remaining(leaf, visible);
         }
         for &p in points {
-            self.solve_point(p, visible);
+            self.solve_point(p, None, visible);
         }
+    }
+
+    /// One point, with only the objects `undecided` still to decide (every
+    /// other object must be in `visible`) and only the horizon bins
+    /// `interest` read, when given (they must hold the bins of every object
+    /// of `undecided`): adds to `visible` each of them not hidden from `v`,
+    /// with the verdict [`Solver::solve_run`] gives it.
+    pub fn solve_point_for(
+        &mut self,
+        v: DVec2,
+        interest: Option<(i64, i64)>,
+        undecided: &[u32],
+        visible: &mut ObjectSet,
+    ) {
+        // Per node, the greatest height of the undecided objects below it:
+        // what `solve_run` finds from the visible set, built from the few
+        // undecided objects instead.
+        let index = self.index;
+        self.remaining.clear();
+        self.remaining
+            .resize(index.pyramid.len(), f64::NEG_INFINITY);
+        for &o in undecided {
+            let height = index.objects[o as usize].height;
+            let mut n = index.object_leaf[o as usize];
+            while n != NO_PARENT && self.remaining[n as usize] < height {
+                self.remaining[n as usize] = height;
+                n = index.parent[n as usize];
+            }
+        }
+        self.solve_point(v, interest, visible);
     }
 
     /// Recompute the greatest height of the objects not yet visible under
@@ -335,13 +365,16 @@ impl<'a> Solver<'a> {
     }
 
     /// One sample: add every object not yet in `visible` that is not hidden
-    /// from `v`.
-    fn solve_point(&mut self, v: DVec2, visible: &mut ObjectSet) {
+    /// from `v` (reading only the bins `interest`, when given).
+    fn solve_point(&mut self, v: DVec2, interest: Option<(i64, i64)>, visible: &mut ObjectSet) {
         // The cull map is drawn only when a not yet visible object that
         // overlaps the window is tested.
         self.window.place_around(v, self.near_field);
         let mut drawn = false;
         self.horizon.clear();
+        if let Some(bins) = interest {
+            self.horizon.restrict_to_bins(bins);
+        }
         self.epoch += 1;
         self.sample_epoch = self.epoch;
         self.chains.clear();
@@ -651,7 +684,6 @@ impl<'a> Solver<'a> {
     }
 }
 
-/// Distance from `v` to the nearest point of `rect` (0 inside).
 /// Queue every chain that starts in `bucket` (at the pieces its stride
 /// picks, from the absolute square `vc` of the eye) with its reach;
 /// `stride` is the bucket's [`bucket_stride`] from `vc`.
@@ -902,7 +934,9 @@ fn add_ready_chains(
     }
 }
 
-fn rect_distance(v: DVec2, rect: &Rect) -> f64 {
+/// Distance from `v` to the nearest point of `rect` (0 inside): the
+/// distance at which an item is tested, and chains nearer than it enter.
+pub(crate) fn rect_distance(v: DVec2, rect: &Rect) -> f64 {
     v.clamp(rect.min, rect.max).distance(v)
 }
 

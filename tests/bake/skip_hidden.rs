@@ -7,6 +7,7 @@
 
 use citypvs::prepare::Scene;
 use citypvs::visibility::bitset::ObjectSet;
+use citypvs::visibility::horizon::{Cover, covering_bins};
 use citypvs::visibility::index::SceneIndex;
 use citypvs::visibility::samples::MeshTopology;
 use citypvs::visibility::solver::Solver;
@@ -122,6 +123,89 @@ fn compare_probes(scene: &Scene, points: usize) -> (usize, usize) {
 fn the_probe_answers_the_same_with_and_without_its_early_stop() {
     let (hidden, seen) = compare_probes(&crate::common::generated_scene(400, 3), 150);
     assert!(hidden > 20 && seen > 20, "{hidden} hidden and {seen} not");
+}
+
+/// Solving a unit for some objects only (at each point every other object
+/// and every one seen at an earlier point counts as decided, and only the
+/// horizon bins that cover the rest are read, as an incremental bake does)
+/// gives each of them the verdict of a full solve of the unit. The objects
+/// are clusters around one or two buildings, so from far away they cover a
+/// narrow range of directions and from near a wide one, at times more than
+/// half a turn.
+#[test]
+fn solving_for_some_objects_gives_them_the_verdicts_of_a_full_solve() {
+    let scene = crate::common::generated_scene(400, 3);
+    let params = &scene.settings;
+    let index = SceneIndex::build(&scene.city.buildings, &scene.occluders, params.pixel);
+    let topo = MeshTopology::of(&scene.cells.triangles);
+    let n = scene.city.buildings.len();
+    let spacing = params.sample_spacing();
+    let mut solver = Solver::new(&index, params.eye_height, params.near_field);
+    let (mut restricted, mut seen, mut hidden) = (0, 0, 0);
+    let step = (topo.edges.len() / 400).max(1);
+    for (u, e) in (0..topo.edges.len()).step_by(step).enumerate() {
+        let points = topo.edge_interior_samples(e, spacing);
+        if points.is_empty() {
+            continue;
+        }
+        let middle = |r: &citypvs::model::Rect| (r.min + r.max) * 0.5;
+        // One cluster, or two apart (so the bins to read often reach
+        // round more than half a turn).
+        let centres = [(u * 37) % n, (u * 37 + 11 * u + 5) % n];
+        let centres = &centres[..1 + u % 2];
+        let list: Vec<u32> = (0..n as u32)
+            .filter(|&o| {
+                centres.iter().any(|&c| {
+                    let centre = middle(&index.objects[c].rect);
+                    middle(&index.objects[o as usize].rect).distance(centre) < 120.0
+                })
+            })
+            .collect();
+        // Point by point, as the incremental bake does: the objects seen
+        // so far count as decided, and only the bins covering the others
+        // are read.
+        let mut part: Vec<u32> = Vec::new();
+        for &p in &points {
+            let todo: Vec<u32> = list.iter().copied().filter(|o| !part.contains(o)).collect();
+            if todo.is_empty() {
+                continue;
+            }
+            let interest =
+                match covering_bins(p, todo.iter().map(|&o| &index.objects[o as usize].rect)) {
+                    Cover::Bins(lo, hi) => Some((lo, hi)),
+                    Cover::Nothing | Cover::Everything => None,
+                };
+            restricted += usize::from(interest.is_some());
+            let mut set = ObjectSet::new(n);
+            set.fill(n);
+            for &o in &todo {
+                set.remove(o as usize);
+            }
+            solver.solve_point_for(p, interest, &todo, &mut set);
+            part.extend(todo.iter().copied().filter(|&o| set.contains(o as usize)));
+        }
+        let mut full = ObjectSet::new(n);
+        solver.solve_run(&points, &mut full);
+        for &o in &list {
+            assert_eq!(
+                part.contains(&o),
+                full.contains(o as usize),
+                "edge {e} ({} points from {:?}), object {o}: the verdicts differ",
+                points.len(),
+                points[0]
+            );
+            if full.contains(o as usize) {
+                seen += 1;
+            } else {
+                hidden += 1;
+            }
+        }
+    }
+    assert!(
+        restricted > 100,
+        "only {restricted} samples were restricted"
+    );
+    assert!(seen > 50 && hidden > 50, "{seen} seen and {hidden} hidden");
 }
 
 /// Each bucket's starts ordered by stride hold, for stride 1, 2 and 4,
