@@ -148,7 +148,7 @@ pub fn rebake(
         }
     }
     let mut probes: Vec<(Rect, f64)> = Vec::new();
-    let mut probe_objects: Vec<u32> = Vec::new();
+    let mut changed_new: Vec<u32> = Vec::new();
     for (j, b) in scene.city.buildings.iter().enumerate() {
         let same = old_ids.get(b.id.as_str()).is_some_and(|&i| {
             let (a, n) = (&old_prints[i as usize], &new_prints[j]);
@@ -158,7 +158,7 @@ pub fn rebake(
             let r = new_prints[j].rect();
             rects.push(r);
             probes.push((r, b.height));
-            probe_objects.push(j as u32);
+            changed_new.push(j as u32);
         }
     }
     stats.objects_changed_old = changed_old.iter().filter(|&&c| c).count();
@@ -226,51 +226,21 @@ pub fn rebake(
             in_part.push((c, set));
         }
     }
-    // A cell outside X's near field keeps the verdicts of every object
-    // whose directions miss X's rectangles at all its samples; the others
-    // are solved again.
-    in_part.sort_unstable_by_key(|(c, _)| *c);
-    let list: Vec<usize> = in_part.iter().map(|(c, _)| *c).collect();
-    let wanted = engine.objects_in_directions(&list, &rects, &probe_objects);
-    let mut part_cells = Vec::new();
-    let mut part_wanted = Vec::new();
-    let mut part_kept = Vec::new();
-    for ((c, old_set), wanted) in in_part.into_iter().zip(wanted) {
-        // A sample inside a rectangle of X is within its near field, so this
-        // does not happen; should it, the cell is solved in full.
-        let Some(wanted) = wanted else { continue };
-        // An object the old cell did not see was hidden at every sample, so
-        // it can only be seen now from a sample in whose changed directions
-        // it lies; one it saw, or a changed object, is tested at every one.
-        let mut w = WantedObjects::default();
-        for o in wanted {
-            if old_set.binary_search(&o).is_ok() || probe_objects.binary_search(&o).is_ok() {
-                w.everywhere.push(o);
-            } else {
-                w.where_changed.push(o);
-            }
-        }
-        let kept: Vec<u32> = old_set
-            .into_iter()
-            .filter(|o| w.everywhere.binary_search(o).is_err())
-            .collect();
-        part_cells.push(c);
-        part_wanted.push(w);
-        part_kept.push(kept);
-    }
-    stats.cells_solved_in_part = part_cells.len();
-    stats.objects_solved_in_part = part_wanted
+    let part = plan_in_part(engine, in_part, &rects, &changed_new);
+    stats.cells_solved_in_part = part.cells.len();
+    stats.objects_solved_in_part = part
+        .wanted
         .iter()
         .map(|w| w.everywhere.len() + w.where_changed.len())
         .sum();
     let todo: Vec<usize> = (0..cells.len())
-        .filter(|&c| sets[c].is_none() && part_cells.binary_search(&c).is_err())
+        .filter(|&c| sets[c].is_none() && part.cells.binary_search(&c).is_err())
         .collect();
-    stats.cells_recomputed = todo.len() + part_cells.len();
+    stats.cells_recomputed = todo.len() + part.cells.len();
     stats.cells_copied = cells.len() - stats.cells_recomputed;
     progress(stats.cells_copied as u64);
-    let seen = engine.solve_cells_for(&part_cells, &part_wanted, &rects, progress);
-    for ((c, mut kept), seen) in part_cells.into_iter().zip(part_kept).zip(seen) {
+    let seen = engine.solve_cells_for(&part.cells, &part.wanted, &rects, progress);
+    for ((c, mut kept), seen) in part.cells.into_iter().zip(part.kept).zip(seen) {
         kept.extend(seen);
         kept.sort_unstable();
         sets[c] = Some(kept);
@@ -284,6 +254,60 @@ pub fn rebake(
         .map(|s| s.expect("every cell is copied or solved"))
         .collect();
     Ok((sets, solve, stats))
+}
+
+/// The cells solved in part, ascending, with what each is solved for and
+/// the members of its old set it keeps.
+struct PartPlan {
+    cells: Vec<usize>,
+    wanted: Vec<WantedObjects>,
+    kept: Vec<Vec<u32>>,
+}
+
+/// Plan the cells of `in_part` (with their old sets mapped to the new
+/// numbering; outside X's near field): each keeps the verdicts of every
+/// object that lies beyond no rectangle of X (`rects`) in its directions
+/// from any of its samples, and is solved again for the others. A cell
+/// with a sample inside a rectangle is left out (solved in full).
+fn plan_in_part(
+    engine: &VisibilityEngine,
+    mut in_part: Vec<(usize, Vec<u32>)>,
+    rects: &[Rect],
+    changed_new: &[u32],
+) -> PartPlan {
+    in_part.sort_unstable_by_key(|(c, _)| *c);
+    let list: Vec<usize> = in_part.iter().map(|(c, _)| *c).collect();
+    let wanted = engine.objects_in_directions(&list, rects, changed_new);
+    let mut plan = PartPlan {
+        cells: Vec::new(),
+        wanted: Vec::new(),
+        kept: Vec::new(),
+    };
+    for ((c, old_set), wanted) in in_part.into_iter().zip(wanted) {
+        // A sample inside a rectangle of X is within its near field, so this
+        // does not happen; should it, the cell is solved in full.
+        let Some(wanted) = wanted else { continue };
+        // An object the old cell did not see was hidden at every sample, so
+        // it can only be seen now from a sample in whose changed directions
+        // it lies; one it saw, or a changed object, is tested at every one.
+        let mut w = WantedObjects::default();
+        for o in wanted {
+            if old_set.binary_search(&o).is_ok() || changed_new.binary_search(&o).is_ok() {
+                w.everywhere.push(o);
+            } else {
+                w.where_changed.push(o);
+            }
+        }
+        plan.kept.push(
+            old_set
+                .into_iter()
+                .filter(|o| w.everywhere.binary_search(o).is_err())
+                .collect(),
+        );
+        plan.cells.push(c);
+        plan.wanted.push(w);
+    }
+    plan
 }
 
 /// [`rebake`] packaged like a checkpointed bake of all cells, for the
