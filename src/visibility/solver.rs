@@ -213,6 +213,10 @@ pub struct Solver<'a> {
     epoch: u64,
     /// The epoch at which the current sample's horizon was cleared.
     sample_epoch: u64,
+    /// Tags ([`chain_tag`]) of the chains that held the horizon's bins at
+    /// the end of the previous sample of the run, queued again for the next
+    /// one (docs/DESIGN.md, "Chains carried along a run").
+    carried: Vec<u64>,
 }
 
 impl<'a> Solver<'a> {
@@ -239,14 +243,16 @@ impl<'a> Solver<'a> {
             bucket_marks: vec![NodeMark::default(); index.bucket_count()],
             epoch: 1,
             sample_epoch: 1,
+            carried: Vec::new(),
         }
     }
 
-    /// With `false`, every chain nearer than an item enters the horizon
-    /// in full before the item is tested: no bucket, node of the bucket
-    /// hierarchy or chain is skipped for lying below the horizon. Slower;
-    /// the visible sets must be the same (those skips only leave out
-    /// chains that cannot raise the horizon), which is what tests check.
+    /// With `false`, no bucket, node of the bucket hierarchy or chain is
+    /// skipped for lying below the horizon: every chain the search reaches
+    /// enters the horizon in full. Slower; the visible sets must be the
+    /// same (those skips only leave out chains that cannot raise the
+    /// horizon, so every bin, and every bin's holder, is the same at every
+    /// step of the search), which is what tests check.
     pub fn set_skip_hidden(&mut self, skip: bool) {
         // One switch, kept by the horizon, read by the sweep too.
         self.horizon.skip_hidden = skip;
@@ -290,9 +296,20 @@ impl<'a> Solver<'a> {
         for leaf in leaves {
             self.refresh_remaining(leaf, visible);
         }
-        for &p in points {
+        self.carried.clear();
+        for (i, &p) in points.iter().enumerate() {
             self.solve_point(p, None, visible);
+            if i + 1 < points.len() {
+                // The chains that hold the horizon now are queued again for
+                // the next sample: a few hundred chains that, seen from 2 m
+                // further on, hide nearly all it hid.
+                self.carried.clear();
+                self.horizon.holders(&mut self.carried);
+                self.carried.sort_unstable();
+                self.carried.dedup();
+            }
         }
+        self.carried.clear();
     }
 
     /// One point, with only the objects `undecided` still to decide (every
@@ -311,6 +328,7 @@ impl<'a> Solver<'a> {
         // what `solve_run` finds from the visible set, built from the few
         // undecided objects instead.
         let index = self.index;
+        self.carried.clear();
         self.remaining.clear();
         self.remaining
             .resize(index.pyramid.len(), f64::NEG_INFINITY);
@@ -383,6 +401,13 @@ impl<'a> Solver<'a> {
         self.queue.clear();
         let Some(root) = self.index.root else { return };
         let index = self.index;
+        // The chains carried from the previous sample of the run wait, like
+        // any other, until the search passes their farthest point.
+        for &tag in &self.carried {
+            let (e, pieces, bucket) = chain_of_tag(tag);
+            self.chains
+                .push(chain_reach(index, v, e, pieces), e, pieces, bucket);
+        }
         self.queue.push(Reverse((
             key(rect_distance(v, &index.pyramid[root as usize].rect)),
             Item::Node(root),
@@ -398,9 +423,8 @@ impl<'a> Solver<'a> {
                     if top == f64::NEG_INFINITY {
                         continue;
                     }
-                    self.grow_horizon(v, r);
                     let node = &index.pyramid[n as usize];
-                    if self.horizon.hides_rect(v, self.eye, &node.rect, top) {
+                    if self.node_hidden_so_far(v, r, &node.rect, top) {
                         continue;
                     }
                     for &c in &node.children {
@@ -420,8 +444,7 @@ impl<'a> Solver<'a> {
                     if visible.contains(o as usize) {
                         continue;
                     }
-                    self.grow_horizon(v, r);
-                    if !self.object_hidden(v, o, &window, &mut drawn) {
+                    if !self.object_hidden(v, r, o, &window, &mut drawn) {
                         visible.insert(o as usize);
                         self.refresh_remaining(index.object_leaf[o as usize], visible);
                     }
@@ -437,13 +460,10 @@ impl<'a> Solver<'a> {
     /// and the horizon over the whole rectangle then suffices.) So the
     /// verdict reads only the object, the horizon at its distance and the
     /// cull map, and a hidden pyramid node implies it for each object below.
-    fn object_hidden(&mut self, v: DVec2, o: u32, window: &Rect, drawn: &mut bool) -> bool {
+    fn object_hidden(&mut self, v: DVec2, r: f64, o: u32, window: &Rect, drawn: &mut bool) -> bool {
         let index = self.index;
         let object = &index.objects[o as usize];
-        if self
-            .horizon
-            .hides_rect(v, self.eye, &object.rect, object.height)
-        {
+        if self.hidden_by_chains_nearer(v, r, &object.rect, object.height) {
             return true;
         }
         if !contains(window, &object.rect) {
@@ -459,8 +479,39 @@ impl<'a> Solver<'a> {
             .spans_hidden(&object.spans, object.height, &mut outside)
     }
 
-    /// Add to the horizon every chain whose farthest vertex is nearer than `r`.
-    fn grow_horizon(&mut self, v: DVec2, r: f64) {
+    /// Whether the horizon of the chains nearer than `r` (the distance of
+    /// `rect`) hides `rect` up to `top`. The horizon is first asked as it
+    /// is: it holds some of those chains only (it is never grown past the
+    /// distance of the item being tested, and items come nearest first),
+    /// and a horizon of fewer chains is lower in every bin, so "hidden"
+    /// there is already the answer. Only otherwise is it grown to `r` and
+    /// asked again (docs/DESIGN.md, "Growing the horizon only when asked").
+    fn hidden_by_chains_nearer(&mut self, v: DVec2, r: f64, rect: &Rect, top: f64) -> bool {
+        self.enter_chains_nearer(v, r);
+        if self.horizon.hides_rect(v, self.eye, rect, top) {
+            return true;
+        }
+        let before = self.epoch;
+        self.sweep_to(v, r);
+        self.enter_chains_nearer(v, r);
+        // The horizon changes only when chains enter it, and then the epoch
+        // moves on: an unchanged horizon gives the same "no".
+        self.epoch != before && self.horizon.hides_rect(v, self.eye, rect, top)
+    }
+
+    /// Whether the chains found so far hide pyramid node `rect` (at
+    /// distance `r`) up to `top`. A node only saves work: when it is not
+    /// shown hidden, its children and objects are queued, and each object
+    /// gets its own full test. So a node never makes the search sweep
+    /// farther; only objects do.
+    fn node_hidden_so_far(&mut self, v: DVec2, r: f64, rect: &Rect, top: f64) -> bool {
+        self.enter_chains_nearer(v, r);
+        self.horizon.hides_rect(v, self.eye, rect, top)
+    }
+
+    /// Sweep the edge buckets out to distance `r`, so that every chain of
+    /// the sample nearer than `r` is queued.
+    fn sweep_to(&mut self, v: DVec2, r: f64) {
         let index = self.index;
         // Sweep edge buckets out to distance r so every chain that could be
         // nearer than r is queued.
@@ -481,6 +532,12 @@ impl<'a> Solver<'a> {
             };
             sweep.ring(self.swept_rings);
         }
+    }
+
+    /// Add to the horizon every queued chain whose farthest vertex is
+    /// nearer than `r`.
+    fn enter_chains_nearer(&mut self, v: DVec2, r: f64) {
+        let index = self.index;
         let mut ready = std::mem::take(&mut self.ready);
         ready.clear();
         self.chains.take_nearer(r, &mut ready);
@@ -917,7 +974,7 @@ fn add_ready_chains(
     eye: f64,
     ready: &[QueuedChain],
 ) {
-    for &(_, e, pieces, _) in ready {
+    for &(_, e, pieces, bucket) in ready {
         let edge = &index.edges[e as usize];
         let mut cur = e;
         let mut count = 0;
@@ -930,8 +987,21 @@ fn add_ready_chains(
             cur = c.next;
             Some(c.b)
         }));
-        horizon.add_chain(v, eye, edge.height, chain);
+        horizon.add_chain(v, eye, edge.height, chain_tag(e, pieces, bucket), chain);
     }
+}
+
+/// A chain (first piece, piece count, bucket it starts in) as one number,
+/// for the horizon to hand back: 32 bits of piece, 4 of count (at most
+/// 5) and 28 of bucket (the grid has at most 4 million).
+fn chain_tag(e: u32, pieces: u32, bucket: u32) -> u64 {
+    debug_assert!(pieces < 16 && bucket < 1 << 28);
+    e as u64 | (pieces as u64) << 32 | (bucket as u64) << 36
+}
+
+/// The chain named by a [`chain_tag`].
+fn chain_of_tag(tag: u64) -> (u32, u32, u32) {
+    (tag as u32, (tag >> 32) as u32 & 15, (tag >> 36) as u32)
 }
 
 /// Distance from `v` to the nearest point of `rect` (0 inside): the
