@@ -491,12 +491,18 @@ impl<'a> Solver<'a> {
         if self.horizon.hides_rect(v, self.eye, rect, top) {
             return true;
         }
-        let before = self.epoch;
-        self.sweep_to(v, r);
-        self.enter_chains_nearer(v, r);
-        // The horizon changes only when chains enter it, and then the epoch
-        // moves on: an unchanged horizon gives the same "no".
-        self.epoch != before && self.horizon.hides_rect(v, self.eye, rect, top)
+        // Ring by ring, the chains nearer than r enter as they are found,
+        // and the item is asked again whenever the horizon changed (the
+        // epoch moves on when chains enter): "hidden" is final at once,
+        // "not hidden" only once every ring out to r is swept.
+        while self.sweep_one_more_ring(v, r) {
+            let before = self.epoch;
+            self.enter_chains_nearer(v, r);
+            if self.epoch != before && self.horizon.hides_rect(v, self.eye, rect, top) {
+                return true;
+            }
+        }
+        false
     }
 
     /// Whether the chains found so far hide pyramid node `rect` (at
@@ -509,15 +515,14 @@ impl<'a> Solver<'a> {
         self.horizon.hides_rect(v, self.eye, rect, top)
     }
 
-    /// Sweep the edge buckets out to distance `r`, so that every chain of
-    /// the sample nearer than `r` is queued.
-    fn sweep_to(&mut self, v: DVec2, r: f64) {
+    /// Sweep one more ring of edge buckets, when the rings swept so far do
+    /// not yet hold every chain that could be nearer than `r`; false when
+    /// they do (every such chain is then queued or in).
+    fn sweep_one_more_ring(&mut self, v: DVec2, r: f64) -> bool {
         let index = self.index;
-        // Sweep edge buckets out to distance r so every chain that could be
-        // nearer than r is queued.
         let rings_needed = (r / index.bucket_size()).ceil() as i64 + 1;
         let vc = stride_cell(v);
-        while self.swept_rings < rings_needed && self.swept_rings < index.max_bucket_ring(v) {
+        if self.swept_rings < rings_needed && self.swept_rings < index.max_bucket_ring(v) {
             self.swept_rings += 1;
             let mut sweep = Sweep {
                 index,
@@ -531,7 +536,9 @@ impl<'a> Solver<'a> {
                 chains: &mut self.chains,
             };
             sweep.ring(self.swept_rings);
+            return true;
         }
+        false
     }
 
     /// Add to the horizon every queued chain whose farthest vertex is
