@@ -213,10 +213,6 @@ pub struct Solver<'a> {
     epoch: u64,
     /// The epoch at which the current sample's horizon was cleared.
     sample_epoch: u64,
-    /// Tags ([`chain_tag`]) of the chains that held the horizon's bins at
-    /// the end of the previous sample of the run, queued again for the next
-    /// one (docs/DESIGN.md, "Chains carried along a run").
-    carried: Vec<u64>,
 }
 
 impl<'a> Solver<'a> {
@@ -243,7 +239,6 @@ impl<'a> Solver<'a> {
             bucket_marks: vec![NodeMark::default(); index.bucket_count()],
             epoch: 1,
             sample_epoch: 1,
-            carried: Vec::new(),
         }
     }
 
@@ -251,8 +246,8 @@ impl<'a> Solver<'a> {
     /// skipped for lying below the horizon: every chain the search reaches
     /// enters the horizon in full. Slower; the visible sets must be the
     /// same (those skips only leave out chains that cannot raise the
-    /// horizon, so every bin, and every bin's holder, is the same at every
-    /// step of the search), which is what tests check.
+    /// horizon, so every bin is the same at every step of the search),
+    /// which is what tests check.
     pub fn set_skip_hidden(&mut self, skip: bool) {
         // One switch, kept by the horizon, read by the sweep too.
         self.horizon.skip_hidden = skip;
@@ -296,20 +291,9 @@ impl<'a> Solver<'a> {
         for leaf in leaves {
             self.refresh_remaining(leaf, visible);
         }
-        self.carried.clear();
-        for (i, &p) in points.iter().enumerate() {
+        for &p in points {
             self.solve_point(p, None, visible);
-            if i + 1 < points.len() {
-                // The chains that hold the horizon now are queued again for
-                // the next sample: a few hundred chains that, seen from 2 m
-                // further on, hide nearly all it hid.
-                self.carried.clear();
-                self.horizon.holders(&mut self.carried);
-                self.carried.sort_unstable();
-                self.carried.dedup();
-            }
         }
-        self.carried.clear();
     }
 
     /// One point, with only the objects `undecided` still to decide (every
@@ -328,7 +312,6 @@ impl<'a> Solver<'a> {
         // what `solve_run` finds from the visible set, built from the few
         // undecided objects instead.
         let index = self.index;
-        self.carried.clear();
         self.remaining.clear();
         self.remaining
             .resize(index.pyramid.len(), f64::NEG_INFINITY);
@@ -401,13 +384,6 @@ impl<'a> Solver<'a> {
         self.queue.clear();
         let Some(root) = self.index.root else { return };
         let index = self.index;
-        // The chains carried from the previous sample of the run wait, like
-        // any other, until the search passes their farthest point.
-        for &tag in &self.carried {
-            let (e, pieces, bucket) = chain_of_tag(tag);
-            self.chains
-                .push(chain_reach(index, v, e, pieces), e, pieces, bucket);
-        }
         self.queue.push(Reverse((
             key(rect_distance(v, &index.pyramid[root as usize].rect)),
             Item::Node(root),
@@ -981,7 +957,7 @@ fn add_ready_chains(
     eye: f64,
     ready: &[QueuedChain],
 ) {
-    for &(_, e, pieces, bucket) in ready {
+    for &(_, e, pieces, _) in ready {
         let edge = &index.edges[e as usize];
         let mut cur = e;
         let mut count = 0;
@@ -994,21 +970,8 @@ fn add_ready_chains(
             cur = c.next;
             Some(c.b)
         }));
-        horizon.add_chain(v, eye, edge.height, chain_tag(e, pieces, bucket), chain);
+        horizon.add_chain(v, eye, edge.height, chain);
     }
-}
-
-/// A chain (first piece, piece count, bucket it starts in) as one number,
-/// for the horizon to hand back: 32 bits of piece, 4 of count (at most
-/// 5) and 28 of bucket (the grid has at most 4 million).
-fn chain_tag(e: u32, pieces: u32, bucket: u32) -> u64 {
-    debug_assert!(pieces < 16 && bucket < 1 << 28);
-    e as u64 | (pieces as u64) << 32 | (bucket as u64) << 36
-}
-
-/// The chain named by a [`chain_tag`].
-fn chain_of_tag(tag: u64) -> (u32, u32, u32) {
-    (tag as u32, (tag >> 32) as u32 & 15, (tag >> 36) as u32)
 }
 
 /// Distance from `v` to the nearest point of `rect` (0 inside): the
