@@ -463,8 +463,12 @@ impl<'a> Solver<'a> {
     /// there is already the answer. Only otherwise is it grown to `r` and
     /// asked again (docs/DESIGN.md, "Growing the horizon only when asked").
     fn hidden_by_chains_nearer(&mut self, v: DVec2, r: f64, rect: &Rect, top: f64) -> bool {
-        self.enter_chains_nearer(v, r);
         if self.horizon.hides_rect(v, self.eye, rect, top) {
+            return true;
+        }
+        let before = self.epoch;
+        self.enter_chains_nearer(v, r);
+        if self.epoch != before && self.horizon.hides_rect(v, self.eye, rect, top) {
             return true;
         }
         // Ring by ring, the chains nearer than r enter as they are found,
@@ -487,8 +491,12 @@ impl<'a> Solver<'a> {
     /// gets its own full test. So a node never makes the search sweep
     /// farther; only objects do.
     fn node_hidden_so_far(&mut self, v: DVec2, r: f64, rect: &Rect, top: f64) -> bool {
+        if self.horizon.hides_rect(v, self.eye, rect, top) {
+            return true;
+        }
+        let before = self.epoch;
         self.enter_chains_nearer(v, r);
-        self.horizon.hides_rect(v, self.eye, rect, top)
+        self.epoch != before && self.horizon.hides_rect(v, self.eye, rect, top)
     }
 
     /// Sweep one more ring of edge buckets, when the rings swept so far do
