@@ -96,8 +96,36 @@ fn chain_reach(index: &SceneIndex, v: DVec2, e: u32, pieces: u32) -> f64 {
 const CHAIN_SLOT: f64 = 4.0;
 
 /// A chain waiting to enter the horizon: its reach (greatest distance from
-/// the sample), first piece, piece count and the bucket it starts in.
-type QueuedChain = (f64, u32, u32, u32);
+/// the sample), its first piece, and its piece count (at most 5, in the
+/// top 4 bits) with the bucket it starts in (at most 4 million, in the
+/// low 28): 16 bytes, since a sample's queue can hold many thousands.
+#[derive(Clone, Copy)]
+struct QueuedChain {
+    reach: f64,
+    first: u32,
+    pieces_and_bucket: u32,
+}
+
+impl QueuedChain {
+    const BUCKET_BITS: u32 = 28;
+
+    fn new(reach: f64, first: u32, pieces: u32, bucket: u32) -> Self {
+        debug_assert!(pieces < 16 && bucket < 1 << Self::BUCKET_BITS);
+        QueuedChain {
+            reach,
+            first,
+            pieces_and_bucket: pieces << Self::BUCKET_BITS | bucket,
+        }
+    }
+
+    fn pieces(&self) -> u32 {
+        self.pieces_and_bucket >> Self::BUCKET_BITS
+    }
+
+    fn bucket(&self) -> u32 {
+        self.pieces_and_bucket & ((1 << Self::BUCKET_BITS) - 1)
+    }
+}
 
 /// Chains waiting to enter the horizon, in distance slots: a chain only has
 /// to be in the horizon before an item farther than its farthest point is
@@ -129,7 +157,7 @@ impl ChainQueue {
         if slot >= self.slots.len() {
             self.slots.resize_with(slot + 1, Vec::new);
         }
-        self.slots[slot].push((d, e, pieces, bucket));
+        self.slots[slot].push(QueuedChain::new(d, e, pieces, bucket));
         self.len += 1;
     }
 
@@ -148,7 +176,7 @@ impl ChainQueue {
         if let Some(slot) = self.slots.get_mut(whole) {
             let before = slot.len();
             slot.retain(|&c| {
-                if c.0 < r {
+                if c.reach < r {
                     out.push(c);
                     false
                 } else {
@@ -539,7 +567,7 @@ impl<'a> Solver<'a> {
                 // that could raise it (docs/DESIGN.md, "The bucket
                 // hierarchy").
                 let (eye, epoch, sample_epoch) = (self.eye, self.epoch, self.sample_epoch);
-                ready.retain(|&(_, _, _, bucket)| {
+                ready.retain(|c| {
                     !chain_bucket_hidden(
                         index,
                         &self.horizon,
@@ -547,7 +575,7 @@ impl<'a> Solver<'a> {
                         &mut self.bucket_marks,
                         (v, eye),
                         (epoch, sample_epoch),
-                        bucket as usize,
+                        c.bucket() as usize,
                     )
                 });
             }
@@ -965,7 +993,8 @@ fn add_ready_chains(
     eye: f64,
     ready: &[QueuedChain],
 ) {
-    for &(_, e, pieces, _) in ready {
+    for c in ready {
+        let (e, pieces) = (c.first, c.pieces());
         let edge = &index.edges[e as usize];
         let mut cur = e;
         let mut count = 0;
