@@ -216,8 +216,6 @@ pub struct Solver<'a> {
     near_field: f64,
     pub window: CullWindow,
     horizon: Horizon,
-    edge_stamp: Vec<u32>,
-    stamp: u32,
     gathered: Vec<(f64, u32)>,
     queue: BinaryHeap<Reverse<(u64, Item)>>,
     chains: ChainQueue,
@@ -227,8 +225,7 @@ pub struct Solver<'a> {
     /// Per pyramid node, the greatest height of its objects not yet in the
     /// unit's visible set (`NEG_INFINITY` when every one is).
     remaining: Vec<f64>,
-    /// Stamps of the edges gathered for the cull map (kept apart from the
-    /// chain sweep's, which runs at the same time).
+    /// Stamps of the edges gathered for the cull map.
     raster_stamp: Vec<u32>,
     raster_stamp_value: u32,
     /// Per level of the bucket hierarchy, per node, the sweep's last test.
@@ -251,8 +248,6 @@ impl<'a> Solver<'a> {
             near_field,
             window: CullWindow::new(index.grid),
             horizon: Horizon::default(),
-            edge_stamp: vec![0; index.edges.len()],
-            stamp: 0,
             gathered: Vec::new(),
             queue: BinaryHeap::new(),
             chains: ChainQueue::default(),
@@ -279,15 +274,6 @@ impl<'a> Solver<'a> {
     pub fn set_skip_hidden(&mut self, skip: bool) {
         // One switch, kept by the horizon, read by the sweep too.
         self.horizon.skip_hidden = skip;
-    }
-
-    fn next_stamp(&mut self) -> u32 {
-        self.stamp = self.stamp.wrapping_add(1);
-        if self.stamp == 0 {
-            self.edge_stamp.fill(0);
-            self.stamp = 1;
-        }
-        self.stamp
     }
 
     /// Add to `visible` every object not hidden from the sample at `v`.
@@ -408,7 +394,6 @@ impl<'a> Solver<'a> {
         self.sample_epoch = self.epoch;
         self.chains.clear();
         self.swept_rings = -1;
-        self.next_stamp();
         self.queue.clear();
         let Some(root) = self.index.root else { return };
         let index = self.index;
@@ -428,7 +413,7 @@ impl<'a> Solver<'a> {
                         continue;
                     }
                     let node = &index.pyramid[n as usize];
-                    if self.node_hidden_so_far(v, r, &node.rect, top) {
+                    if self.hidden_by_chains_found(v, r, &node.rect, top) {
                         continue;
                     }
                     for &c in &node.children {
@@ -491,40 +476,31 @@ impl<'a> Solver<'a> {
     /// there is already the answer. Only otherwise is it grown to `r` and
     /// asked again (docs/DESIGN.md, "Growing the horizon only when asked").
     fn hidden_by_chains_nearer(&mut self, v: DVec2, r: f64, rect: &Rect, top: f64) -> bool {
-        if self.horizon.hides_rect(v, self.eye, rect, top) {
-            return true;
-        }
-        let before = self.epoch;
-        self.enter_chains_nearer(v, r);
-        if self.epoch != before && self.horizon.hides_rect(v, self.eye, rect, top) {
+        if self.hidden_by_chains_found(v, r, rect, top) {
             return true;
         }
         // Ring by ring, the chains nearer than r enter as they are found,
-        // and the item is asked again whenever the horizon changed (the
-        // epoch moves on when chains enter): "hidden" is final at once,
-        // "not hidden" only once every ring out to r is swept.
+        // and the item is asked again whenever the horizon changed:
+        // "hidden" is final at once, "not hidden" only once every ring out
+        // to r is swept.
         while self.sweep_one_more_ring(v, r) {
-            let before = self.epoch;
-            self.enter_chains_nearer(v, r);
-            if self.epoch != before && self.horizon.hides_rect(v, self.eye, rect, top) {
+            if self.enter_chains_nearer(v, r) && self.horizon.hides_rect(v, self.eye, rect, top) {
                 return true;
             }
         }
         false
     }
 
-    /// Whether the chains found so far hide pyramid node `rect` (at
-    /// distance `r`) up to `top`. A node only saves work: when it is not
-    /// shown hidden, its children and objects are queued, and each object
-    /// gets its own full test. So a node never makes the search sweep
-    /// farther; only objects do.
-    fn node_hidden_so_far(&mut self, v: DVec2, r: f64, rect: &Rect, top: f64) -> bool {
-        if self.horizon.hides_rect(v, self.eye, rect, top) {
-            return true;
-        }
-        let before = self.epoch;
-        self.enter_chains_nearer(v, r);
-        self.epoch != before && self.horizon.hides_rect(v, self.eye, rect, top)
+    /// Whether the chains found so far hide `rect` (at distance `r`) up to
+    /// `top`: first those in the horizon, then with the queued ones nearer
+    /// than `r` entered, asked again only if they changed it. No bucket is
+    /// swept. A pyramid node is tested only this way: a node only saves
+    /// work (when it is not shown hidden, its children and objects are
+    /// queued and each object gets its own full test), so a node never
+    /// makes the search sweep farther; only objects do.
+    fn hidden_by_chains_found(&mut self, v: DVec2, r: f64, rect: &Rect, top: f64) -> bool {
+        self.horizon.hides_rect(v, self.eye, rect, top)
+            || (self.enter_chains_nearer(v, r) && self.horizon.hides_rect(v, self.eye, rect, top))
     }
 
     /// Sweep one more ring of edge buckets, when the rings swept so far do
@@ -554,13 +530,15 @@ impl<'a> Solver<'a> {
     }
 
     /// Add to the horizon every queued chain whose farthest vertex is
-    /// nearer than `r`.
-    fn enter_chains_nearer(&mut self, v: DVec2, r: f64) {
+    /// nearer than `r`; true when any entered (the horizon's state, its
+    /// epoch, then moved on).
+    fn enter_chains_nearer(&mut self, v: DVec2, r: f64) -> bool {
         let index = self.index;
         let mut ready = std::mem::take(&mut self.ready);
         ready.clear();
         self.chains.take_nearer(r, &mut ready);
-        if !ready.is_empty() {
+        let entered = !ready.is_empty();
+        if entered {
             if self.horizon.skip_hidden {
                 // The horizon may have grown since a chain's bucket was
                 // swept: a bucket (or node) that it hides now holds no chain
@@ -583,6 +561,7 @@ impl<'a> Solver<'a> {
             self.epoch += 1;
         }
         self.ready = ready;
+        entered
     }
 
     /// True when every `(rect, top)` of `objects` is hidden from `v` by the
