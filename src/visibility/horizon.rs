@@ -50,6 +50,9 @@ pub struct Horizon {
     border_dirs: Vec<DVec2>,
     /// Per group of GROUP bins, the smallest slope of its bins.
     group_min: Vec<f64>,
+    /// Per bin, the tag of the chain that gave it its slope (read only
+    /// where the slope is finite).
+    holders: Vec<u64>,
     /// Whether a chain that cannot raise any bin is skipped before its
     /// per-bin distances are computed (always, except in tests that
     /// compare against adding every chain in full).
@@ -72,6 +75,7 @@ impl Default for Horizon {
                 .map(|b| direction_of(b as f64 * BIN_WIDTH))
                 .collect(),
             group_min: vec![f64::NEG_INFINITY; BINS / GROUP],
+            holders: vec![0; BINS],
             skip_hidden: true,
             interest: None,
         }
@@ -182,11 +186,14 @@ impl Horizon {
     /// chain's arc is raised to (height - eye) / d, where d is the greatest
     /// distance from the eye to the parts of the chain inside that bin's
     /// wedge: every ray of the bin meets the chain no farther than d.
+    /// `tag` names the chain to the caller: [`Horizon::holders`] gives
+    /// back the tags of the chains that hold the bins.
     pub fn add_chain(
         &mut self,
         v: DVec2,
         eye: f64,
         height: f64,
+        tag: u64,
         points: impl Iterator<Item = DVec2>,
     ) {
         if height <= eye {
@@ -326,6 +333,7 @@ impl Horizon {
                         dirty |= 1 << (w / GROUP);
                     }
                     *s = raised;
+                    self.holders[w] = tag;
                 }
             }
         }
@@ -338,6 +346,18 @@ impl Horizon {
                 .iter()
                 .fold(f64::INFINITY, |m, &x| if x < m { x } else { m });
         }
+    }
+
+    /// Append to `out` the tag of the chain holding each bin that has a
+    /// slope (the last chain to raise it), in bin order, repeats and all.
+    pub fn holders(&self, out: &mut Vec<u64>) {
+        out.extend(
+            self.slopes
+                .iter()
+                .zip(&self.holders)
+                .filter(|(s, _)| s.is_finite())
+                .map(|(_, &tag)| tag),
+        );
     }
 
     /// True when everything in `rect` up to height `top` is below the
@@ -581,7 +601,13 @@ mod tests {
         let pts = (0..=100).map(|i| DVec2::new(10.0, -50.0 + i as f64));
         let pts: Vec<DVec2> = pts.collect();
         for i in 0..pts.len() - 2 {
-            h.add_chain(DVec2::ZERO, 2.0, 10.0, pts[i..i + 3].iter().copied());
+            h.add_chain(
+                DVec2::ZERO,
+                2.0,
+                10.0,
+                i as u64,
+                pts[i..i + 3].iter().copied(),
+            );
         }
         let house = Rect {
             min: DVec2::new(30.0, -5.0),

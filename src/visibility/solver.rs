@@ -125,6 +125,24 @@ impl QueuedChain {
     fn bucket(&self) -> u32 {
         self.pieces_and_bucket & ((1 << Self::BUCKET_BITS) - 1)
     }
+
+    /// The chain as one number, for the horizon to hand back
+    /// ([`Horizon::holders`]); the reach is left out.
+    fn tag(&self) -> u64 {
+        self.first as u64 | (self.pieces_and_bucket as u64) << 32
+    }
+
+    /// The first piece and the piece count and bucket of a chain's
+    /// [`QueuedChain::tag`].
+    fn of_tag(tag: u64) -> (u32, QueuedChain) {
+        let first = tag as u32;
+        let chain = QueuedChain {
+            reach: 0.0,
+            first,
+            pieces_and_bucket: (tag >> 32) as u32,
+        };
+        (first, chain)
+    }
 }
 
 /// Chains waiting to enter the horizon, in distance slots: a chain only has
@@ -238,6 +256,10 @@ pub struct Solver<'a> {
     epoch: u64,
     /// The epoch at which the current sample's horizon was cleared.
     sample_epoch: u64,
+    /// Tags ([`QueuedChain::tag`]) of the chains that held the horizon's
+    /// bins at the end of the previous sample of the run, queued early for
+    /// the next one (docs/DESIGN.md, "Chains carried along a run").
+    carried: Vec<u64>,
 }
 
 impl<'a> Solver<'a> {
@@ -262,6 +284,7 @@ impl<'a> Solver<'a> {
             bucket_marks: vec![NodeMark::default(); index.bucket_count()],
             epoch: 1,
             sample_epoch: 1,
+            carried: Vec::new(),
         }
     }
 
@@ -305,9 +328,20 @@ impl<'a> Solver<'a> {
         for leaf in leaves {
             self.refresh_remaining(leaf, visible);
         }
-        for &p in points {
+        self.carried.clear();
+        for (i, &p) in points.iter().enumerate() {
             self.solve_point(p, None, visible);
+            if i + 1 < points.len() {
+                // The chains that hold the horizon now are queued early for
+                // the next sample: a few hundred chains that, seen from 2 m
+                // further on, hide nearly all they hid here.
+                self.carried.clear();
+                self.horizon.holders(&mut self.carried);
+                self.carried.sort_unstable();
+                self.carried.dedup();
+            }
         }
+        self.carried.clear();
     }
 
     /// One point, with only the objects `undecided` still to decide (every
@@ -326,6 +360,7 @@ impl<'a> Solver<'a> {
         // what `solve_run` finds from the visible set, built from the few
         // undecided objects instead.
         let index = self.index;
+        self.carried.clear();
         self.remaining.clear();
         self.remaining
             .resize(index.pyramid.len(), f64::NEG_INFINITY);
@@ -397,6 +432,19 @@ impl<'a> Solver<'a> {
         self.queue.clear();
         let Some(root) = self.index.root else { return };
         let index = self.index;
+        // The chains carried from the previous sample of the run that are
+        // chains of this sample too (the stride this sample gives their
+        // first piece is theirs) wait, like any other, until the search
+        // passes their farthest point; the others are dropped.
+        let vc = stride_cell(v);
+        for &tag in &self.carried {
+            let (e, c) = QueuedChain::of_tag(tag);
+            let pieces = c.pieces();
+            if edge_stride(vc, index.edges[e as usize].a) + 1 == pieces {
+                let reach = chain_reach(index, v, e, pieces);
+                self.chains.push(reach, e, pieces, c.bucket());
+            }
+        }
         self.queue.push(Reverse((
             key(rect_distance(v, &index.pyramid[root as usize].rect)),
             Item::Node(root),
@@ -986,7 +1034,7 @@ fn add_ready_chains(
             cur = c.next;
             Some(c.b)
         }));
-        horizon.add_chain(v, eye, edge.height, chain);
+        horizon.add_chain(v, eye, edge.height, c.tag(), chain);
     }
 }
 
