@@ -310,8 +310,9 @@ impl<'a> Solver<'a> {
     /// `visible`: later samples skip what earlier ones saw, and a pyramid
     /// node is tested with the greatest height of its objects still to be
     /// decided. The result depends on the points (in the order given), the
-    /// objects already in `visible` and the scene only, never on what the
-    /// solver solved before.
+    /// objects already in `visible` and the scene only: what the solver
+    /// solved before (the chains it carries over) changes only how soon
+    /// "hidden" is found, never a verdict.
     pub fn solve_run(&mut self, points: &[DVec2], visible: &mut ObjectSet) {
         let index = self.index;
         self.remaining.clear();
@@ -328,20 +329,19 @@ impl<'a> Solver<'a> {
         for leaf in leaves {
             self.refresh_remaining(leaf, visible);
         }
-        self.carried.clear();
-        for (i, &p) in points.iter().enumerate() {
+        for &p in points {
             self.solve_point(p, None, visible);
-            if i + 1 < points.len() {
-                // The chains that hold the horizon now are queued early for
-                // the next sample: a few hundred chains that, seen from 2 m
-                // further on, hide nearly all they hid here.
-                self.carried.clear();
-                self.horizon.holders(&mut self.carried);
-                self.carried.sort_unstable();
-                self.carried.dedup();
-            }
+            // The chains that hold the horizon now are queued early for the
+            // next sample this solver solves (the next of the run, or the
+            // first of the next unit, nearby in the cells' order): a few
+            // hundred chains that, seen from 2 m further on, hide nearly
+            // all they hid here. Only how soon "hidden" is found depends on
+            // them, never a verdict.
+            self.carried.clear();
+            self.horizon.holders(&mut self.carried);
+            self.carried.sort_unstable();
+            self.carried.dedup();
         }
-        self.carried.clear();
     }
 
     /// One point, with only the objects `undecided` still to decide (every
