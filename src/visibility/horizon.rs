@@ -39,7 +39,6 @@ const GROUP: usize = 32;
 #[derive(Clone, Debug)]
 pub struct Horizon {
     slopes: Vec<f64>,
-    chain_points: Vec<DVec2>,
     chain_angles: Vec<f64>,
     /// Distance from the eye to each point of the chain being added.
     chain_dists: Vec<f64>,
@@ -67,7 +66,6 @@ impl Default for Horizon {
     fn default() -> Self {
         Horizon {
             slopes: vec![f64::NEG_INFINITY; BINS],
-            chain_points: Vec::new(),
             chain_angles: Vec::new(),
             chain_dists: Vec::new(),
             bin_nearness: Vec::new(),
@@ -188,33 +186,25 @@ impl Horizon {
     /// wedge: every ray of the bin meets the chain no farther than d.
     /// `tag` names the chain to the caller: [`Horizon::holders`] gives
     /// back the tags of the chains that hold the bins.
-    pub fn add_chain(
-        &mut self,
-        v: DVec2,
-        eye: f64,
-        height: f64,
-        tag: u64,
-        points: impl Iterator<Item = DVec2>,
-    ) {
+    pub fn add_chain(&mut self, v: DVec2, eye: f64, height: f64, tag: u64, points: &[DVec2]) {
         if height <= eye {
             return;
         }
-        self.chain_points.clear();
-        self.chain_points.extend(points);
-        let n = self.chain_points.len();
+        let n = points.len();
         if n < 2 {
             return;
         }
         self.chain_angles.clear();
-        self.chain_dists.clear();
         let mut reference = 0.0;
         for i in 0..n {
-            let p = self.chain_points[i];
-            let d = p.distance(v);
-            if d < 1e-9 {
+            let p = points[i];
+            // `d < 1e-9` for the distance d computed below (a correctly
+            // rounded square root is monotone, so the square is tested
+            // first and the root taken only near the threshold).
+            let d2 = p.distance_squared(v);
+            if d2 < 1e-16 && d2.sqrt() < 1e-9 {
                 return;
             }
-            self.chain_dists.push(d);
             reference = unwrapped_angle(v, p, reference);
             self.chain_angles.push(reference);
         }
@@ -251,8 +241,7 @@ impl Horizon {
         }
         // The steepest slope this chain could give; if every bin it would
         // raise is already at least that steep, it adds nothing.
-        let nearest = self
-            .chain_points
+        let nearest = points
             .windows(2)
             .map(|w| squared_distance_to_segment(v, w[0], w[1]))
             .fold(f64::INFINITY, min_of)
@@ -261,11 +250,16 @@ impl Horizon {
         if self.skip_hidden && self.all_at_least(first_full, last_full, rise / nearest) {
             return;
         }
+        // The distances of the points, needed only by a chain that may
+        // raise a bin (most are passed over above).
+        self.chain_dists.clear();
+        self.chain_dists
+            .extend(points.iter().map(|p| p.distance(v)));
         self.bin_nearness.clear();
         self.bin_nearness
             .resize((top - base + 1) as usize, f64::INFINITY);
         for i in 0..n - 1 {
-            let (a, b) = (self.chain_points[i], self.chain_points[i + 1]);
+            let (a, b) = (points[i], points[i + 1]);
             let (mut ta, mut tb) = (self.chain_angles[i], self.chain_angles[i + 1]);
             let (mut da, mut db) = (self.chain_dists[i], self.chain_dists[i + 1]);
             if ta > tb {
@@ -601,13 +595,7 @@ mod tests {
         let pts = (0..=100).map(|i| DVec2::new(10.0, -50.0 + i as f64));
         let pts: Vec<DVec2> = pts.collect();
         for i in 0..pts.len() - 2 {
-            h.add_chain(
-                DVec2::ZERO,
-                2.0,
-                10.0,
-                i as u64,
-                pts[i..i + 3].iter().copied(),
-            );
+            h.add_chain(DVec2::ZERO, 2.0, 10.0, i as u64, &pts[i..i + 3]);
         }
         let house = Rect {
             min: DVec2::new(30.0, -5.0),

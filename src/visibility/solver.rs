@@ -37,6 +37,9 @@ fn chain_stride(distance: f64) -> u32 {
     }
 }
 
+/// The most pieces a chain holds: the greatest stride plus one.
+const MAX_PIECES: u32 = 5;
+
 /// Side in metres of the absolute squares (anchored at local (0, 0)) that
 /// decide a chain's stride: the chains starting at an edge depend only on
 /// the edge, its ring and the sample, never on the index's bucket grid.
@@ -96,7 +99,7 @@ fn chain_reach(index: &SceneIndex, v: DVec2, e: u32, pieces: u32) -> f64 {
 const CHAIN_SLOT: f64 = 4.0;
 
 /// A chain waiting to enter the horizon: its reach (greatest distance from
-/// the sample), its first piece, and its piece count (at most 5, in the
+/// the sample), its first piece, and its piece count (at most [`MAX_PIECES`], in the
 /// top 4 bits) with the bucket it starts in (at most 4 million, in the
 /// low 28): 16 bytes, since a sample's queue can hold many thousands.
 #[derive(Clone, Copy)]
@@ -110,7 +113,7 @@ impl QueuedChain {
     const BUCKET_BITS: u32 = 28;
 
     fn new(reach: f64, first: u32, pieces: u32, bucket: u32) -> Self {
-        debug_assert!(pieces < 16 && bucket < 1 << Self::BUCKET_BITS);
+        debug_assert!(pieces <= MAX_PIECES && bucket < 1 << Self::BUCKET_BITS);
         QueuedChain {
             reach,
             first,
@@ -1020,21 +1023,19 @@ fn add_ready_chains(
     eye: f64,
     ready: &[QueuedChain],
 ) {
+    // A chain has at most MAX_PIECES pieces, so its points fit in an array.
+    let mut points = [DVec2::ZERO; MAX_PIECES as usize + 1];
     for c in ready {
-        let (e, pieces) = (c.first, c.pieces());
+        let (e, pieces) = (c.first, c.pieces() as usize);
         let edge = &index.edges[e as usize];
+        points[0] = edge.a;
         let mut cur = e;
-        let mut count = 0;
-        let chain = std::iter::once(edge.a).chain(std::iter::from_fn(|| {
-            if count >= pieces {
-                return None;
-            }
-            count += 1;
-            let c = &index.edges[cur as usize];
-            cur = c.next;
-            Some(c.b)
-        }));
-        horizon.add_chain(v, eye, edge.height, c.tag(), chain);
+        for point in &mut points[1..=pieces] {
+            let piece = &index.edges[cur as usize];
+            *point = piece.b;
+            cur = piece.next;
+        }
+        horizon.add_chain(v, eye, edge.height, c.tag(), &points[..=pieces]);
     }
 }
 
