@@ -268,6 +268,7 @@ impl Horizon {
             }
             let normal = (b - a).perp();
             let offset = (a - v).dot(normal);
+            let inverse_offset = 1.0 / offset;
             let far_nearness = 1.0 / da.max(db);
             let dirs = &self.border_dirs;
             // Reciprocal distance along the border ray of bin `border` to the
@@ -275,7 +276,7 @@ impl Horizon {
             // border lies strictly between its end angles), never below the
             // reciprocal of the edge's farther end.
             let nearness_at = |border: i64| -> f64 {
-                let q = dirs[wrap(border)].dot(normal) / offset;
+                let q = dirs[wrap(border)].dot(normal) * inverse_offset;
                 if q.is_finite() && q > 0.0 {
                     max_of(q, far_nearness)
                 } else {
