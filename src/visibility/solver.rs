@@ -595,17 +595,27 @@ impl<'a> Solver<'a> {
                 // swept: a bucket (or node) that it hides now holds no chain
                 // that could raise it (docs/DESIGN.md, "The bucket
                 // hierarchy").
+                // The chains of one bucket mostly come one after another:
+                // the answer for the last bucket is the one its marks give
+                // again (the horizon does not change here).
                 let (eye, epoch, sample_epoch) = (self.eye, self.epoch, self.sample_epoch);
+                let mut last: Option<(u32, bool)> = None;
                 ready.retain(|c| {
-                    !chain_bucket_hidden(
-                        index,
-                        &self.horizon,
-                        &mut self.node_marks,
-                        &mut self.bucket_marks,
-                        (v, eye),
-                        (epoch, sample_epoch),
-                        c.bucket() as usize,
-                    )
+                    let bucket = c.bucket();
+                    let hidden = match last {
+                        Some((b, hidden)) if b == bucket => hidden,
+                        _ => chain_bucket_hidden(
+                            index,
+                            &self.horizon,
+                            &mut self.node_marks,
+                            &mut self.bucket_marks,
+                            (v, eye),
+                            (epoch, sample_epoch),
+                            bucket as usize,
+                        ),
+                    };
+                    last = Some((bucket, hidden));
+                    !hidden
                 });
             }
             add_ready_chains(&mut self.horizon, index, v, self.eye, &ready);
