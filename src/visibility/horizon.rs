@@ -196,8 +196,7 @@ impl Horizon {
         }
         self.chain_angles.clear();
         let mut reference = 0.0;
-        for i in 0..n {
-            let p = points[i];
+        for &p in points {
             // `d < 1e-9` for the distance d computed below (a correctly
             // rounded square root is monotone, so the square is tested
             // first and the root taken only near the threshold).

@@ -475,7 +475,11 @@ fn ids_sharing_long_prefixes_and_non_ascii_ids_round_trip() {
     let n = ids.len() as u32;
     data.object_ids = ids.clone();
     data.visible = (0..data.cells.len())
-        .map(|c| (0..n).filter(|i| (i + c as u32) % 3 == 0).collect())
+        .map(|c| {
+            (0..n)
+                .filter(|i| (i + c as u32).is_multiple_of(3))
+                .collect()
+        })
         .collect();
     let (bytes, stats) = encode_pvs(&data).unwrap();
     let reader = PvsReader::from_bytes(bytes).unwrap();
