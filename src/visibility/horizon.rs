@@ -29,6 +29,8 @@ pub const BINS: usize = 2048;
 /// The pseudo-angle of a full turn.
 const TURN: f64 = 4.0;
 const BIN_WIDTH: f64 = TURN / BINS as f64;
+// A power of two, so multiplying and dividing by it is exact.
+const _: () = assert!(BIN_WIDTH == 1.0 / 512.0);
 const _: () = assert!(BINS.is_power_of_two() && (BINS / GROUP).is_power_of_two());
 // The groups touched by one chain fit in a 64-bit mask.
 const _: () = assert!(BINS / GROUP <= 64);
@@ -282,12 +284,16 @@ impl Horizon {
                     far_nearness
                 }
             };
+            // The first border at or past tb: BIN_WIDTH is a power of two,
+            // so `border as f64 * BIN_WIDTH` and `tb / BIN_WIDTH` are exact
+            // and `border as f64 * BIN_WIDTH >= tb` is `border >= past_tb`.
+            let past_tb = ceil_i64(tb / BIN_WIDTH);
             // The borders outside [ta, tb] are replaced by the edge's ends:
             // the lower border of bin `bin` of this edge.
             let lower_of = |bin: i64| -> f64 {
                 if bin <= bin_of(ta) {
                     1.0 / da
-                } else if bin as f64 * BIN_WIDTH >= tb {
+                } else if bin >= past_tb {
                     1.0 / db
                 } else {
                     nearness_at(bin)
@@ -302,7 +308,7 @@ impl Horizon {
             let mut lower = lower_of(first);
             for bin in first..=last {
                 let upper_border = bin + 1;
-                let upper = if upper_border as f64 * BIN_WIDTH >= tb {
+                let upper = if upper_border >= past_tb {
                     1.0 / db
                 } else {
                     nearness_at(upper_border)
