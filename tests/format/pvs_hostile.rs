@@ -176,7 +176,9 @@ fn apply(mut bytes: Vec<u8>, m: &Mutation) -> Vec<u8> {
             bytes[at..at + w].copy_from_slice(&v.to_le_bytes()[..w]);
         }
         Mutation::Truncate(a) => {
-            let keep = 56 + a % (body - 24);
+            // An earlier truncation may already have cut the file to 56
+            // bytes: then there is nothing shorter to keep.
+            let keep = 56 + a % (body - 24).max(1);
             bytes.truncate(keep);
         }
         Mutation::Insert(a, v) => {
