@@ -8,7 +8,7 @@ use geo::{BooleanOps, Validation};
 use glam::DVec2;
 
 use crate::geometry::convert::{open_ring_from_geo, polygon_to_geo};
-use crate::model::{MultiPolygon, Polygon, Ring, ring_signed_area2};
+use crate::model::{MultiPolygon, Polygon, Ring, point_in_ring, ring_signed_area2};
 
 /// Vertices closer than this (metres) are duplicates.
 const DUPLICATE_TOLERANCE: f64 = 1e-6;
@@ -126,7 +126,7 @@ fn union_nonzero(polygons: Vec<geo::Polygon<f64>>) -> Vec<Polygon> {
     let subject = geo::MultiPolygon::new(polygons);
     let empty = geo::MultiPolygon::<f64>::new(Vec::new());
     let united = subject.boolean_op_with_fill_rule(&empty, OpType::Union, FillRule::NonZero);
-    united
+    let polygons: Vec<Polygon> = united
         .0
         .iter()
         .filter_map(|p| {
@@ -148,7 +148,59 @@ fn union_nonzero(polygons: Vec<geo::Polygon<f64>>) -> Vec<Polygon> {
                 .collect();
             Some(Polygon { exterior, holes })
         })
-        .collect()
+        .collect();
+    if geo::MultiPolygon::new(polygons.iter().map(polygon_to_geo).collect()).is_valid() {
+        polygons
+    } else {
+        regroup_holes(polygons)
+    }
+}
+
+/// In near-degenerate cases the overlay gives a hole to the wrong outer
+/// ring (seen: a hole placed in a small island of another hole). Its rings
+/// are still the union's boundary and do not cross, so each hole is given
+/// back to the innermost outer ring that holds a point just inside the hole
+/// beside the middle of its longest edge: a point no island in the hole
+/// reaches. A hole that no outer ring holds stays where it was.
+fn regroup_holes(polygons: Vec<Polygon>) -> Vec<Polygon> {
+    let mut outers: Vec<Polygon> = Vec::with_capacity(polygons.len());
+    let mut holes: Vec<(usize, Ring)> = Vec::new();
+    for (i, p) in polygons.into_iter().enumerate() {
+        holes.extend(p.holes.into_iter().map(|h| (i, h)));
+        outers.push(Polygon {
+            exterior: p.exterior,
+            holes: Vec::new(),
+        });
+    }
+    let areas: Vec<f64> = outers
+        .iter()
+        .map(|p| ring_signed_area2(&p.exterior))
+        .collect();
+    for (first_owner, hole) in holes {
+        let owner = probe_inside_hole(&hole)
+            .and_then(|probe| {
+                (0..outers.len())
+                    .filter(|&i| point_in_ring(probe, &outers[i].exterior))
+                    .min_by(|&a, &b| areas[a].total_cmp(&areas[b]))
+            })
+            .unwrap_or(first_owner);
+        outers[owner].holes.push(hole);
+    }
+    outers
+}
+
+/// A point inside the (clockwise) hole, a millionth of its longest edge in
+/// from that edge's middle; none when the ring has no edge of any length.
+fn probe_inside_hole(hole: &[DVec2]) -> Option<DVec2> {
+    let (a, b) = (0..hole.len())
+        .map(|i| (hole[i], hole[(i + 1) % hole.len()]))
+        .max_by(|x, y| x.0.distance(x.1).total_cmp(&y.0.distance(y.1)))?;
+    let d = b - a;
+    if d.length() == 0.0 {
+        return None;
+    }
+    // Clockwise: the enclosed side is on the right of a -> b.
+    Some(0.5 * (a + b) + 1e-6 * DVec2::new(d.y, -d.x))
 }
 
 /// Repair one building's footprint. Polygons that stay invalid after repair,
@@ -288,6 +340,38 @@ mod tests {
         assert_eq!(r.footprint.len(), 2, "{:?}", r.footprint);
         assert!((multipolygon_area(&r.footprint) - 50.0).abs() < 1e-6);
         assert!(r.notes.iter().any(|n| n.contains("BooleanOps")));
+    }
+
+    #[test]
+    fn a_hole_given_to_the_wrong_outer_ring_goes_back_to_its_own() {
+        // A 100 m square with a courtyard (20..60) holding an island
+        // (30..40) and a second courtyard (70..90) that was handed to the
+        // island, as the overlay once did.
+        let ccw =
+            |x0: f64, y0: f64, x1: f64, y1: f64| ring(&[(x0, y0), (x1, y0), (x1, y1), (x0, y1)]);
+        let cw = |x0, y0, x1, y1| {
+            let mut r = ccw(x0, y0, x1, y1);
+            r.reverse();
+            r
+        };
+        let misgrouped = vec![
+            Polygon {
+                exterior: ccw(0.0, 0.0, 100.0, 100.0),
+                holes: vec![cw(20.0, 20.0, 60.0, 60.0)],
+            },
+            Polygon {
+                exterior: ccw(30.0, 30.0, 40.0, 40.0),
+                holes: vec![cw(70.0, 70.0, 90.0, 90.0)],
+            },
+        ];
+        let shape =
+            |ps: &[Polygon]| geo::MultiPolygon::new(ps.iter().map(polygon_to_geo).collect());
+        assert!(!shape(&misgrouped).is_valid());
+        let fixed = regroup_holes(misgrouped);
+        assert!(shape(&fixed).is_valid(), "{fixed:?}");
+        assert_eq!(fixed[0].holes.len(), 2);
+        assert!(fixed[1].holes.is_empty());
+        assert!((multipolygon_area(&fixed) - (10_000.0 - 1_600.0 - 400.0 + 100.0)).abs() < 1e-9);
     }
 
     #[test]
