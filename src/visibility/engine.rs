@@ -181,8 +181,28 @@ impl<'a> VisibilityEngine<'a> {
         )
     }
 
-    fn solve_unit(&self, solver: &mut Solver, scratch: &mut ObjectSet, unit: UnitId) -> StoredSet {
+    /// The two corner units of an edge unit; none for a corner.
+    fn edge_ends(&self, unit: UnitId) -> Option<[UnitId; 2]> {
+        let n = self.vertex_count();
+        (unit as usize >= n).then(|| self.topo.edges[unit as usize - n])
+    }
+
+    /// The set of `unit`, starting from the sets `seed` (for an edge: its
+    /// two corners' sets). Its samples then decide only the objects no
+    /// corner saw, and since a sample's verdict on an object does not
+    /// depend on what is already in the set, the union with the corners'
+    /// sets, and so every cell's PVS, is the same as without the seed.
+    fn solve_unit(
+        &self,
+        solver: &mut Solver,
+        scratch: &mut ObjectSet,
+        unit: UnitId,
+        seed: &[&StoredSet],
+    ) -> StoredSet {
         scratch.clear();
+        for set in seed {
+            set.add_to(scratch);
+        }
         let points = self.unit_points(unit);
         solver.solve_run(&points, scratch);
         StoredSet::of(scratch)
@@ -203,10 +223,28 @@ impl<'a> VisibilityEngine<'a> {
         let mut solver = self.solver();
         let mut scratch = ObjectSet::new(self.objects);
         let mut set = ObjectSet::new(self.objects);
-        for unit in self.cell_units(cell) {
-            self.solve_unit(&mut solver, &mut scratch, unit)
+        let units = self.cell_units(cell);
+        let corners: Vec<StoredSet> = units[..3]
+            .iter()
+            .map(|&u| self.solve_unit(&mut solver, &mut scratch, u, &[]))
+            .collect();
+        for &edge in &units[3..] {
+            let ends = self
+                .edge_ends(edge)
+                .expect("the last three units are edges");
+            let seed: Vec<&StoredSet> = ends
+                .iter()
+                .map(|&e| {
+                    &corners[units[..3]
+                        .iter()
+                        .position(|&u| u == e)
+                        .expect("an edge's ends are the cell's corners")]
+                })
+                .collect();
+            self.solve_unit(&mut solver, &mut scratch, edge, &seed)
                 .add_to(&mut set);
         }
+        corners.iter().for_each(|c| c.add_to(&mut set));
         set.to_vec()
     }
 
@@ -337,10 +375,22 @@ impl<'a> VisibilityEngine<'a> {
                     },
                     |(solver, scratch, set), cell| {
                         set.clear();
+                        // Corners first (they come first in a cell's
+                        // units), so an edge finds its ends' sets solved.
                         for unit in self.cell_units(cell) {
                             let unit_set = slots[&unit].get_or_init(|| {
                                 solved.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                                std::sync::Arc::new(self.solve_unit(solver, scratch, unit))
+                                let ends = self.edge_ends(unit).map(|ends| {
+                                    ends.map(|e| {
+                                        slots[&e]
+                                            .get()
+                                            .expect("a cell's corners are solved before its edges")
+                                            .clone()
+                                    })
+                                });
+                                let seed: Vec<&StoredSet> =
+                                    ends.iter().flatten().map(|s| &**s).collect();
+                                std::sync::Arc::new(self.solve_unit(solver, scratch, unit, &seed))
                             });
                             unit_set.add_to(set);
                         }
@@ -579,14 +629,31 @@ impl<'a> VisibilityEngine<'a> {
                 .iter()
                 .map(|&u| self.unit_sample_count(u))
                 .sum::<usize>();
-            let sets: Vec<StoredSet> = units
-                .par_iter()
-                .map_init(
-                    || (self.solver(), ObjectSet::new(self.objects)),
-                    |(solver, scratch), &unit| self.solve_unit(solver, scratch, unit),
-                )
-                .collect();
-            let of: HashMap<UnitId, StoredSet> = units.into_iter().zip(sets).collect();
+            // Corners (the lower ids) first, then the edges seeded with
+            // their ends' sets.
+            let edges_from = units.partition_point(|&u| self.edge_ends(u).is_none());
+            let solve = |units: &[UnitId], of: &HashMap<UnitId, StoredSet>| -> Vec<StoredSet> {
+                units
+                    .par_iter()
+                    .map_init(
+                        || (self.solver(), ObjectSet::new(self.objects)),
+                        |(solver, scratch), &unit| {
+                            let seed: Vec<&StoredSet> = self
+                                .edge_ends(unit)
+                                .iter()
+                                .flatten()
+                                .map(|e| &of[e])
+                                .collect();
+                            self.solve_unit(solver, scratch, unit, &seed)
+                        },
+                    )
+                    .collect()
+            };
+            let mut of: HashMap<UnitId, StoredSet> = HashMap::new();
+            let corner_sets = solve(&units[..edges_from], &of);
+            of.extend(units[..edges_from].iter().copied().zip(corner_sets));
+            let edge_sets = solve(&units[edges_from..], &of);
+            of.extend(units[edges_from..].iter().copied().zip(edge_sets));
             let done: Vec<Vec<u32>> = chunk
                 .par_iter()
                 .map_init(

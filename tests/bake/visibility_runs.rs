@@ -1,7 +1,9 @@
 //! A unit's visible set is a function of its points and the scene only:
 //! `Solver::solve_run` gives the same set whatever the solver solved
-//! before, it keeps everything its first sample sees, and a bake gives the
-//! same sets for any thread count.
+//! before, it keeps everything its first sample sees, a run started from a
+//! set adds to it just what it finds from nothing (so an edge seeded with
+//! its corners' sets leaves every cell's PVS as it was), and a bake gives
+//! the same sets for any thread count.
 
 use citypvs::visibility::bitset::ObjectSet;
 use citypvs::visibility::index::SceneIndex;
@@ -118,4 +120,84 @@ fn bake_sets_do_not_depend_on_the_thread_count() {
     let one = run(1);
     assert_eq!(one, run(2));
     assert!(one.iter().any(|v| !v.is_empty()));
+}
+
+#[test]
+fn a_run_started_from_a_set_adds_what_it_finds_from_nothing() {
+    let scene = crate::common::generated_scene(120, 6);
+    let params = &scene.settings;
+    let index = SceneIndex::build(&scene.city.buildings, &scene.occluders, params.pixel);
+    let topo = MeshTopology::of(&scene.cells.triangles);
+    let n = scene.city.buildings.len();
+    let mut solver = Solver::new(&index, params.eye_height, params.near_field);
+    let solve = |solver: &mut Solver, points: &[DVec2], seed: &ObjectSet| {
+        let mut set = seed.clone();
+        solver.solve_run(points, &mut set);
+        set
+    };
+    let empty = ObjectSet::new(n);
+    // Every third object: a seed that is no one's visible set.
+    let mut thirds = ObjectSet::new(n);
+    (0..n).step_by(3).for_each(|o| thirds.insert(o));
+    let mut checked = 0;
+    for e in (0..topo.edges.len()).step_by(7) {
+        let points = topo.edge_interior_samples(e, params.sample_spacing());
+        if points.is_empty() {
+            continue;
+        }
+        let [a, b] = topo.edges[e];
+        let mut ends = solve(&mut solver, &[topo.vertices[a as usize]], &empty);
+        ends.union_with(&solve(&mut solver, &[topo.vertices[b as usize]], &empty));
+        let alone = solve(&mut solver, &points, &empty);
+        for seed in [&ends, &thirds] {
+            let mut expected = alone.clone();
+            expected.union_with(seed);
+            assert_eq!(
+                solve(&mut solver, &points, seed),
+                expected,
+                "edge {e}: a seeded run is not the seed plus the run from nothing"
+            );
+        }
+        assert!(
+            alone.count() > 0 && ends.count() > 0,
+            "edge {e} sees something"
+        );
+        checked += 1;
+    }
+    assert!(checked > 20, "{checked} edges checked");
+}
+
+#[test]
+fn cells_are_the_union_of_their_units_solved_from_nothing() {
+    // What the bake computes (edges seeded with their corners' sets, in
+    // chunks) and one cell at a time, against the definition: the union of
+    // the six units' sets, each solved from an empty set.
+    let scene = crate::common::generated_scene(100, 8);
+    let params = &scene.settings;
+    let index = SceneIndex::build(&scene.city.buildings, &scene.occluders, params.pixel);
+    let topo = MeshTopology::of(&scene.cells.triangles);
+    let n = scene.city.buildings.len();
+    let engine = citypvs::visibility::VisibilityEngine::new(&scene).unwrap();
+    let all = engine.solve_all(&|_| {}).unwrap();
+    let mut solver = Solver::new(&index, params.eye_height, params.near_field);
+    for cell in (0..topo.cell_vertices.len()).step_by(5) {
+        let mut expected = ObjectSet::new(n);
+        for &v in &topo.cell_vertices[cell] {
+            solver.solve_run(&[topo.vertices[v as usize]], &mut expected);
+        }
+        for &e in &topo.cell_edges[cell] {
+            let mut set = ObjectSet::new(n);
+            solver.solve_run(
+                &topo.edge_interior_samples(e as usize, params.sample_spacing()),
+                &mut set,
+            );
+            expected.union_with(&set);
+        }
+        assert_eq!(all[cell], expected.to_vec(), "cell {cell} (bake)");
+        assert_eq!(
+            engine.solve_cell(cell),
+            expected.to_vec(),
+            "cell {cell} (alone)"
+        );
+    }
 }
