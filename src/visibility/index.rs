@@ -78,6 +78,8 @@ pub struct PyramidNode {
 pub struct SceneIndex {
     pub grid: PixelGrid,
     pub edges: Vec<OccluderEdge>,
+    /// The chains' points in one flat list (see [`RingPoints`]).
+    pub ring_points: RingPoints,
     /// The edge bucket grid (see [`bucket_grid`]).
     buckets: UniformGrid,
     /// Per bucket, the edges whose bounding box overlaps it.
@@ -137,6 +139,7 @@ impl SceneIndex {
         let edges = collect_edges(occluders);
         let buckets = bucket_grid(&edges);
         let edges = in_bucket_order(edges, &buckets);
+        let ring_points = RingPoints::build(&edges);
         let edge_range = |i: usize| {
             let e = &edges[i];
             buckets.key_range(&Rect::of_points([&e.a, &e.b]))
@@ -216,6 +219,7 @@ impl SceneIndex {
         SceneIndex {
             grid,
             edges,
+            ring_points,
             buckets,
             bucket_lists,
             bucket_starts,
@@ -456,6 +460,59 @@ fn bucket_grid(edges: &[OccluderEdge]) -> UniformGrid {
 /// pieces lies within a narrow band of distances from any eye, which keeps
 /// the horizon's distance ordering tight.
 pub const MAX_EDGE_PIECE: f64 = 6.0;
+
+/// The most pieces a horizon chain may hold: a chain starting at any piece
+/// of a ring finds its points in one stretch of [`RingPoints`].
+pub const MAX_CHAIN_PIECES: usize = 5;
+
+/// Every ring's points in ring order (the first point of each piece), each
+/// ring followed by its first [`MAX_CHAIN_PIECES`] points again, so the
+/// points of a chain of up to that many pieces starting at any piece are
+/// one slice: no walk along the pieces' `next` links and no copy per chain
+/// (the edges themselves are in bucket order, so a ring's pieces are
+/// scattered over the list). A piece's last point is the next piece's
+/// first point exactly (both are the same cut point), so the slice holds
+/// the very numbers the pieces hold.
+pub struct RingPoints {
+    points: Vec<DVec2>,
+    /// Per edge, where its first point is in `points`.
+    start: Vec<u32>,
+}
+
+impl RingPoints {
+    fn build(edges: &[OccluderEdge]) -> RingPoints {
+        let mut points = Vec::new();
+        let mut start = vec![0u32; edges.len()];
+        for (head, edge) in edges.iter().enumerate() {
+            if edge.ring_pos != 0 {
+                continue;
+            }
+            let mut cur = head;
+            loop {
+                start[cur] = points.len() as u32;
+                points.push(edges[cur].a);
+                cur = edges[cur].next as usize;
+                if cur == head {
+                    break;
+                }
+            }
+            for _ in 0..MAX_CHAIN_PIECES {
+                points.push(edges[cur].a);
+                cur = edges[cur].next as usize;
+            }
+        }
+        RingPoints { points, start }
+    }
+
+    /// The points of the chain of `pieces` pieces (at most
+    /// [`MAX_CHAIN_PIECES`]) starting at edge `e`: its first point, then
+    /// each piece's last point.
+    #[inline]
+    pub fn chain(&self, e: u32, pieces: u32) -> &[DVec2] {
+        let from = self.start[e as usize] as usize;
+        &self.points[from..=from + pieces as usize]
+    }
+}
 
 fn collect_edges(occluders: &[Occluder]) -> Vec<OccluderEdge> {
     // Every ring of every occluder, with the occluder's height.

@@ -18,7 +18,7 @@ use glam::DVec2;
 use super::bitset::ObjectSet;
 use super::cullmap::CullWindow;
 use super::horizon::{Horizon, bins_overlap, floor_i64, rect_bins};
-use super::index::{MAX_EDGE_PIECE, NO_PARENT, NODE_LEVELS, NODE_SHIFTS, SceneIndex};
+use super::index::{MAX_CHAIN_PIECES, MAX_EDGE_PIECE, NO_PARENT, NODE_LEVELS, NODE_SHIFTS, SceneIndex};
 use crate::model::{Rect, distance_to_segment};
 
 /// Default half-size in metres of the near-field cull map.
@@ -43,24 +43,8 @@ const MAX_STRIDE: u32 = 4;
 /// The most pieces a chain holds: the greatest stride plus one.
 const MAX_PIECES: u32 = MAX_STRIDE + 1;
 
-/// The points of the chain of `pieces` pieces starting at edge `e` (its
-/// first edge's start, then each piece's end), written into `points`.
-fn chain_points<'p>(
-    index: &SceneIndex,
-    e: u32,
-    pieces: u32,
-    points: &'p mut [DVec2; MAX_PIECES as usize + 1],
-) -> &'p [DVec2] {
-    let pieces = pieces as usize;
-    points[0] = index.edges[e as usize].a;
-    let mut cur = e;
-    for point in &mut points[1..=pieces] {
-        let piece = &index.edges[cur as usize];
-        *point = piece.b;
-        cur = piece.next;
-    }
-    &points[..=pieces]
-}
+// Every chain fits in one stretch of the index's ring points.
+const _: () = assert!(MAX_PIECES as usize <= MAX_CHAIN_PIECES);
 
 /// Side in metres of the absolute squares (anchored at local (0, 0)) that
 /// decide a chain's stride: the chains starting at an edge depend only on
@@ -103,8 +87,7 @@ fn bucket_stride(vc: (i64, i64), rect: &Rect) -> Option<u32> {
 /// correctly rounded square root is monotone, so this is bit for bit the
 /// greatest of the distances.
 fn chain_reach(index: &SceneIndex, v: DVec2, e: u32, pieces: u32) -> f64 {
-    let mut points = [DVec2::ZERO; MAX_PIECES as usize + 1];
-    let points = chain_points(index, e, pieces, &mut points);
+    let points = index.ring_points.chain(e, pieces);
     let mut d2_max = (points[0] - v).length_squared();
     for &p in &points[1..] {
         let d2 = (p - v).length_squared();
@@ -523,11 +506,11 @@ impl<'a> Solver<'a> {
     fn object_hidden(&mut self, v: DVec2, r: f64, o: u32, window: &Rect, drawn: &mut bool) -> bool {
         let index = self.index;
         let object = &index.objects[o as usize];
-        if self.hidden_by_chains_nearer(v, r, &object.rect, object.height) {
-            return true;
-        }
         if !contains(window, &object.rect) {
-            return false;
+            return self.hidden_by_chains_nearer(v, r, &object.rect, object.height);
+        }
+        if self.hidden_by_chains_found(v, r, &object.rect, object.height) {
+            return true;
         }
         if !*drawn {
             self.window.clear_heights();
@@ -537,6 +520,7 @@ impl<'a> Solver<'a> {
         let mut outside = false;
         self.window
             .spans_hidden(&object.spans, object.height, &mut outside)
+            || self.hidden_by_chains_nearer(v, r, &object.rect, object.height)
     }
 
     /// Whether the horizon of the chains nearer than `r` (the distance of
@@ -1055,10 +1039,9 @@ fn add_ready_chains(
     eye: f64,
     ready: &[QueuedChain],
 ) {
-    let mut points = [DVec2::ZERO; MAX_PIECES as usize + 1];
     for c in ready {
         let height = index.edges[c.first as usize].height;
-        let chain = chain_points(index, c.first, c.pieces(), &mut points);
+        let chain = index.ring_points.chain(c.first, c.pieces());
         horizon.add_chain(v, eye, height, c.tag(), chain);
     }
 }
