@@ -447,6 +447,34 @@ pub fn rect_bins(v: DVec2, rect: &Rect) -> Option<(i64, i64)> {
     Some(bins_of(v, rect))
 }
 
+/// Sectors of directions, for sweeping the edge buckets by direction: each
+/// is [`GROUP`] consecutive bins, and a set of sectors is a 64-bit mask.
+pub const SECTORS: usize = BINS / GROUP;
+const _: () = assert!(SECTORS == 64);
+
+/// Every sector.
+pub const ALL_SECTORS: u64 = u64::MAX;
+
+/// The sectors holding the bins that the directions from `v` to `rect`
+/// span, with a bin more on each side (far more than any rounding of the
+/// pseudo-angles, so the mask holds the bins of every point of `rect`);
+/// every sector when `v` is (nearly) in `rect`.
+pub fn rect_sectors(v: DVec2, rect: &Rect) -> u64 {
+    let Some((lo, hi)) = rect_bins(v, rect) else {
+        return ALL_SECTORS;
+    };
+    let (lo, hi) = (lo - 1, hi + 1);
+    if hi - lo + 1 >= BINS as i64 {
+        return ALL_SECTORS;
+    }
+    let (first, last) = (lo.div_euclid(GROUP as i64), hi.div_euclid(GROUP as i64));
+    let mut mask = 0u64;
+    for s in first..=last {
+        mask |= 1 << s.rem_euclid(SECTORS as i64);
+    }
+    mask
+}
+
 /// The bins `lo..=hi` (`lo` in `0..BINS`) that the directions from `v`
 /// (not in `rect`) to `rect` span.
 fn bins_of(v: DVec2, rect: &Rect) -> (i64, i64) {

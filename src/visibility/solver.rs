@@ -17,7 +17,7 @@ use glam::DVec2;
 
 use super::bitset::ObjectSet;
 use super::cullmap::CullWindow;
-use super::horizon::{Horizon, bins_overlap, floor_i64, rect_bins};
+use super::horizon::{ALL_SECTORS, Horizon, SECTORS, bins_overlap, floor_i64, rect_bins, rect_sectors};
 use super::index::{MAX_CHAIN_PIECES, MAX_EDGE_PIECE, NO_PARENT, NODE_LEVELS, NODE_SHIFTS, SceneIndex};
 use crate::model::{Rect, distance_to_segment};
 
@@ -233,6 +233,14 @@ struct NodeMark {
     hidden: bool,
 }
 
+/// The sectors of a bucket's or node's chain rectangle, seen from the
+/// sample of `sample_epoch`.
+#[derive(Clone, Copy, Default)]
+struct SectorMark {
+    sample_epoch: u64,
+    sectors: u64,
+}
+
 /// Reusable per-thread state for solving samples.
 pub struct Solver<'a> {
     index: &'a SceneIndex,
@@ -244,8 +252,17 @@ pub struct Solver<'a> {
     queue: BinaryHeap<Reverse<(u64, Item)>>,
     chains: ChainQueue,
     ready: Vec<QueuedChain>,
-    /// Edge buckets already swept into `chains`, as a Chebyshev ring radius.
-    swept_rings: i64,
+    /// Per sector of directions, the Chebyshev ring radius out to which
+    /// the edge buckets whose chains can meet the sector are swept into
+    /// `chains` (docs/DESIGN.md, "Sweeping by direction").
+    swept_rings: [i64; SECTORS],
+    /// Per edge bucket, the sample epoch at which its chains were queued
+    /// (a bucket is queued at most once per sample).
+    bucket_queued: Vec<u64>,
+    /// Per edge bucket, and per node of each level of the bucket
+    /// hierarchy, the sectors of its chain rectangle as seen from the
+    /// sample of the epoch kept with it.
+    sector_marks: [Vec<SectorMark>; NODE_LEVELS + 1],
     /// Per pyramid node, the greatest height of its objects not yet in the
     /// unit's visible set (`NEG_INFINITY` when every one is).
     remaining: Vec<f64>,
@@ -280,7 +297,16 @@ impl<'a> Solver<'a> {
             queue: BinaryHeap::new(),
             chains: ChainQueue::default(),
             ready: Vec::new(),
-            swept_rings: -1,
+            swept_rings: [-1; SECTORS],
+            bucket_queued: vec![0; index.bucket_count()],
+            sector_marks: std::array::from_fn(|l| {
+                let len = if l < NODE_LEVELS {
+                    index.bucket_nodes(l).len()
+                } else {
+                    index.bucket_count()
+                };
+                vec![SectorMark::default(); len]
+            }),
             remaining: Vec::new(),
             raster_stamp: vec![0; index.edges.len()],
             raster_stamp_value: 0,
@@ -434,7 +460,7 @@ impl<'a> Solver<'a> {
         self.epoch += 1;
         self.sample_epoch = self.epoch;
         self.chains.clear();
-        self.swept_rings = -1;
+        self.swept_rings = [-1; SECTORS];
         self.queue.clear();
         let Some(root) = self.index.root else { return };
         let index = self.index;
@@ -538,7 +564,10 @@ impl<'a> Solver<'a> {
         // and the item is asked again whenever the horizon changed:
         // "hidden" is final at once, "not hidden" only once every ring out
         // to r is swept.
-        while self.sweep_one_more_ring(v, r) {
+        // Only the chains that can meet the item's directions decide it:
+        // the sweep goes out to r in the item's sectors only.
+        let sectors = rect_sectors(v, rect);
+        while self.sweep_one_more_ring(v, r, sectors) {
             if self.enter_chains_nearer(v, r) && self.horizon.hides_rect(v, self.eye, rect, top) {
                 return true;
             }
@@ -558,30 +587,56 @@ impl<'a> Solver<'a> {
             || (self.enter_chains_nearer(v, r) && self.horizon.hides_rect(v, self.eye, rect, top))
     }
 
-    /// Sweep one more ring of edge buckets, when the rings swept so far do
-    /// not yet hold every chain that could be nearer than `r`; false when
-    /// they do (every such chain is then queued or in).
-    fn sweep_one_more_ring(&mut self, v: DVec2, r: f64) -> bool {
+    /// Sweep one more ring of edge buckets for the sectors of `sectors`
+    /// that lag furthest behind, when the rings swept for them so far do
+    /// not yet hold every chain nearer than `r` that can meet them; false
+    /// when they do (every such chain is then queued or in).
+    fn sweep_one_more_ring(&mut self, v: DVec2, r: f64, sectors: u64) -> bool {
         let index = self.index;
-        let rings_needed = (r / index.bucket_size()).ceil() as i64 + 1;
-        let vc = stride_cell(v);
-        if self.swept_rings < rings_needed && self.swept_rings < index.max_bucket_ring(v) {
-            self.swept_rings += 1;
-            let mut sweep = Sweep {
-                index,
-                v,
-                vc,
-                eye: self.eye,
-                epoch: self.epoch,
-                sample_epoch: self.sample_epoch,
-                horizon: &self.horizon,
-                marks: &mut self.node_marks,
-                chains: &mut self.chains,
-            };
-            sweep.ring(self.swept_rings);
-            return true;
+        let rings_needed =
+            ((r / index.bucket_size()).ceil() as i64 + 1).min(index.max_bucket_ring(v));
+        let mut lagging = 0u64;
+        let mut ring = i64::MAX;
+        let mut rest = sectors;
+        while rest != 0 {
+            let s = rest.trailing_zeros() as usize;
+            rest &= rest - 1;
+            let swept = self.swept_rings[s];
+            if swept < rings_needed {
+                if swept + 1 < ring {
+                    ring = swept + 1;
+                    lagging = 0;
+                }
+                if swept + 1 == ring {
+                    lagging |= 1 << s;
+                }
+            }
         }
-        false
+        if lagging == 0 {
+            return false;
+        }
+        let mut sweep = Sweep {
+            index,
+            v,
+            vc: stride_cell(v),
+            eye: self.eye,
+            epoch: self.epoch,
+            sample_epoch: self.sample_epoch,
+            sectors: lagging,
+            horizon: &self.horizon,
+            marks: &mut self.node_marks,
+            queued: &mut self.bucket_queued,
+            sector_marks: &mut self.sector_marks,
+            chains: &mut self.chains,
+        };
+        sweep.ring(ring);
+        let mut rest = lagging;
+        while rest != 0 {
+            let s = rest.trailing_zeros() as usize;
+            rest &= rest - 1;
+            self.swept_rings[s] = ring;
+        }
+        true
     }
 
     /// Add to the horizon every queued chain whose farthest vertex is
@@ -853,8 +908,13 @@ struct Sweep<'s, 'a> {
     eye: f64,
     epoch: u64,
     sample_epoch: u64,
+    /// The sectors swept for: a bucket whose chains meet none of them is
+    /// passed over (left for a sweep of its own sectors).
+    sectors: u64,
     horizon: &'s Horizon,
     marks: &'s mut [Vec<NodeMark>; NODE_LEVELS],
+    queued: &'s mut [u64],
+    sector_marks: &'s mut [Vec<SectorMark>; NODE_LEVELS + 1],
     chains: &'s mut ChainQueue,
 }
 
@@ -885,8 +945,41 @@ impl Sweep<'_, '_> {
         hidden
     }
 
+    /// The sectors of `rect` (the chain rectangle of a node of `level`, or
+    /// of a bucket for `level` = `NODE_LEVELS`, number `n`), found once per
+    /// sample.
+    fn sectors_of(&mut self, level: usize, n: usize, rect: &Rect) -> u64 {
+        let mark = &mut self.sector_marks[level][n];
+        if mark.sample_epoch != self.sample_epoch {
+            *mark = SectorMark {
+                sample_epoch: self.sample_epoch,
+                sectors: if rect.is_empty() {
+                    0
+                } else {
+                    rect_sectors(self.v, rect)
+                },
+            };
+        }
+        mark.sectors
+    }
+
+    /// Whether the node of `level` holding bucket `(x, y)` is passed over:
+    /// its chains meet none of the sectors swept for, or the horizon hides
+    /// it.
+    fn node_skipped(&mut self, level: usize, x: usize, y: usize) -> bool {
+        if self.sectors != ALL_SECTORS {
+            let nodes = self.index.bucket_nodes(level);
+            let n = nodes.node_of(x, y);
+            if self.sectors_of(level, n, nodes.rect(n)) & self.sectors == 0 {
+                return true;
+            }
+        }
+        self.node_hidden(level, x, y)
+    }
+
     /// Test bucket `(x, y)` and queue its chains unless it (or a node
-    /// holding it) is below the horizon.
+    /// holding it) is below the horizon, its chains meet none of the
+    /// sectors swept for, or they are queued already.
     fn bucket(&mut self, x: usize, y: usize) {
         // First the bucket's nodes in the hierarchy, largest first: a node
         // whose rectangle and height the horizon hides holds no chain that
@@ -894,14 +987,26 @@ impl Sweep<'_, '_> {
         // bucket hierarchy").
         if (0..NODE_LEVELS)
             .rev()
-            .any(|level| self.node_hidden(level, x, y))
+            .any(|level| self.node_skipped(level, x, y))
         {
             return;
         }
         let (index, v, eye) = (self.index, self.v, self.eye);
         let bucket = index.bucket_index(x, y);
+        if self.queued[bucket] == self.sample_epoch {
+            return;
+        }
         let height = index.bucket_height(bucket);
         if height <= eye {
+            return;
+        }
+        // Every chain the bucket can start lies in its chain rectangle over
+        // all strides, so its directions lie in that rectangle's sectors.
+        if self.sectors != ALL_SECTORS
+            && self.sectors_of(NODE_LEVELS, bucket, index.bucket_chain_rect(bucket, None))
+                & self.sectors
+                == 0
+        {
             return;
         }
         // Every chain that starts in this bucket lies in its chain
@@ -915,6 +1020,7 @@ impl Sweep<'_, '_> {
         {
             return;
         }
+        self.queued[bucket] = self.sample_epoch;
         queue_bucket_chains(index, v, self.vc, eye, (bucket, stride), self.chains);
     }
 
@@ -932,7 +1038,7 @@ impl Sweep<'_, '_> {
     ) -> Option<usize> {
         for line in lines.into_iter().flatten() {
             let (x, y) = at(i, line);
-            if !self.node_hidden(level, x, y) {
+            if !self.node_skipped(level, x, y) {
                 return None;
             }
         }
