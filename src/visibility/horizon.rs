@@ -447,19 +447,25 @@ pub fn rect_bins(v: DVec2, rect: &Rect) -> Option<(i64, i64)> {
     Some(bins_of(v, rect))
 }
 
-/// Sectors of directions, for sweeping the edge buckets by direction: each
-/// is [`GROUP`] consecutive bins, and a set of sectors is a 64-bit mask.
-pub const SECTORS: usize = BINS / GROUP;
-const _: () = assert!(SECTORS == 64);
+/// A set of sectors of directions, one bit each: the edge buckets are
+/// swept by direction (docs/DESIGN.md, "Sweeping by direction").
+pub type Sectors = u128;
+
+/// Bins per sector.
+pub const SECTOR_BINS: usize = 16;
+
+/// Number of sectors: one bit of [`Sectors`] each.
+pub const SECTORS: usize = BINS / SECTOR_BINS;
+const _: () = assert!(SECTORS == Sectors::BITS as usize);
 
 /// Every sector.
-pub const ALL_SECTORS: u64 = u64::MAX;
+pub const ALL_SECTORS: Sectors = Sectors::MAX;
 
 /// The sectors holding the bins that the directions from `v` to `rect`
 /// span, with a bin more on each side (far more than any rounding of the
 /// pseudo-angles, so the mask holds the bins of every point of `rect`);
 /// every sector when `v` is (nearly) in `rect`.
-pub fn rect_sectors(v: DVec2, rect: &Rect) -> u64 {
+pub fn rect_sectors(v: DVec2, rect: &Rect) -> Sectors {
     let Some((lo, hi)) = rect_bins(v, rect) else {
         return ALL_SECTORS;
     };
@@ -467,8 +473,9 @@ pub fn rect_sectors(v: DVec2, rect: &Rect) -> u64 {
     if hi - lo + 1 >= BINS as i64 {
         return ALL_SECTORS;
     }
-    let (first, last) = (lo.div_euclid(GROUP as i64), hi.div_euclid(GROUP as i64));
-    let mut mask = 0u64;
+    let width = SECTOR_BINS as i64;
+    let (first, last) = (lo.div_euclid(width), hi.div_euclid(width));
+    let mut mask: Sectors = 0;
     for s in first..=last {
         mask |= 1 << s.rem_euclid(SECTORS as i64);
     }
@@ -577,6 +584,50 @@ pub fn bins_overlap(a: (i64, i64), b: (i64, i64)) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    proptest::proptest! {
+        /// The sectors of a rectangle hold the sector of the bin of every
+        /// point in it, seen from anywhere outside it (corners, edges and
+        /// inside points alike), and only sectors its directions reach.
+        #[test]
+        fn a_rectangle_s_sectors_hold_the_bin_of_each_of_its_points(
+            vx in -300.0f64..300.0, vy in -300.0f64..300.0,
+            x in -200.0f64..200.0, y in -200.0f64..200.0,
+            w in 0.0f64..80.0, h in 0.0f64..80.0,
+            tx in 0.0f64..=1.0, ty in 0.0f64..=1.0,
+        ) {
+            let v = DVec2::new(vx, vy);
+            let rect = Rect { min: DVec2::new(x, y), max: DVec2::new(x + w, y + h) };
+            let mask = rect_sectors(v, &rect);
+            let sector_of = |p: DVec2| {
+                let bin = wrap(bin_of(pseudo_angle(p - v)));
+                (1 as Sectors) << (bin / SECTOR_BINS)
+            };
+            let inside = v.clamp(rect.min, rect.max).distance(v) < 1e-6;
+            for p in [
+                rect.min,
+                rect.max,
+                DVec2::new(rect.min.x, rect.max.y),
+                DVec2::new(rect.max.x, rect.min.y),
+                rect.min + (rect.max - rect.min) * DVec2::new(tx, ty),
+                DVec2::new(rect.min.x + w * tx, rect.max.y),
+                DVec2::new(rect.max.x, rect.min.y + h * ty),
+            ] {
+                if p.distance(v) > 1e-9 {
+                    proptest::prop_assert!(mask & sector_of(p) != 0, "{p:?} from {v:?}");
+                }
+            }
+            if inside {
+                proptest::prop_assert_eq!(mask, ALL_SECTORS);
+            } else if let Some((lo, hi)) = rect_bins(v, &rect) {
+                // No more than the bins' sectors and one bin either side.
+                let width = SECTOR_BINS as i64;
+                let sectors = ((hi + 1).div_euclid(width) - (lo - 1).div_euclid(width) + 1)
+                    .min(SECTORS as i64);
+                proptest::prop_assert_eq!(mask.count_ones() as i64, sectors);
+            }
+        }
+    }
 
     #[test]
     fn bin_ranges_meet_modulo_a_turn_however_far_they_are_unwrapped() {

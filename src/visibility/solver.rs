@@ -17,7 +17,7 @@ use glam::DVec2;
 
 use super::bitset::ObjectSet;
 use super::cullmap::CullWindow;
-use super::horizon::{ALL_SECTORS, Horizon, SECTORS, bins_overlap, floor_i64, rect_bins, rect_sectors};
+use super::horizon::{ALL_SECTORS, Horizon, SECTORS, Sectors, bins_overlap, floor_i64, rect_bins, rect_sectors};
 use super::index::{MAX_CHAIN_PIECES, MAX_EDGE_PIECE, NO_PARENT, NODE_LEVELS, NODE_SHIFTS, SceneIndex};
 use crate::model::{Rect, distance_to_segment};
 
@@ -238,7 +238,7 @@ struct NodeMark {
 #[derive(Clone, Copy, Default)]
 struct SectorMark {
     sample_epoch: u64,
-    sectors: u64,
+    sectors: Sectors,
 }
 
 /// Reusable per-thread state for solving samples.
@@ -565,8 +565,13 @@ impl<'a> Solver<'a> {
         // "hidden" is final at once, "not hidden" only once every ring out
         // to r is swept.
         // Only the chains that can meet the item's directions decide it:
-        // the sweep goes out to r in the item's sectors only.
-        let sectors = rect_sectors(v, rect);
+        // the sweep goes out to r in the item's sectors only (in every
+        // direction with the skips off, for tests to compare with).
+        let sectors = if self.horizon.skip_hidden {
+            rect_sectors(v, rect)
+        } else {
+            ALL_SECTORS
+        };
         while self.sweep_one_more_ring(v, r, sectors) {
             if self.enter_chains_nearer(v, r) && self.horizon.hides_rect(v, self.eye, rect, top) {
                 return true;
@@ -591,11 +596,11 @@ impl<'a> Solver<'a> {
     /// that lag furthest behind, when the rings swept for them so far do
     /// not yet hold every chain nearer than `r` that can meet them; false
     /// when they do (every such chain is then queued or in).
-    fn sweep_one_more_ring(&mut self, v: DVec2, r: f64, sectors: u64) -> bool {
+    fn sweep_one_more_ring(&mut self, v: DVec2, r: f64, sectors: Sectors) -> bool {
         let index = self.index;
         let rings_needed =
             ((r / index.bucket_size()).ceil() as i64 + 1).min(index.max_bucket_ring(v));
-        let mut lagging = 0u64;
+        let mut lagging: Sectors = 0;
         let mut ring = i64::MAX;
         let mut rest = sectors;
         while rest != 0 {
@@ -910,7 +915,7 @@ struct Sweep<'s, 'a> {
     sample_epoch: u64,
     /// The sectors swept for: a bucket whose chains meet none of them is
     /// passed over (left for a sweep of its own sectors).
-    sectors: u64,
+    sectors: Sectors,
     horizon: &'s Horizon,
     marks: &'s mut [Vec<NodeMark>; NODE_LEVELS],
     queued: &'s mut [u64],
@@ -948,7 +953,7 @@ impl Sweep<'_, '_> {
     /// The sectors of `rect` (the chain rectangle of a node of `level`, or
     /// of a bucket for `level` = `NODE_LEVELS`, number `n`), found once per
     /// sample.
-    fn sectors_of(&mut self, level: usize, n: usize, rect: &Rect) -> u64 {
+    fn sectors_of(&mut self, level: usize, n: usize, rect: &Rect) -> Sectors {
         let mark = &mut self.sector_marks[level][n];
         if mark.sample_epoch != self.sample_epoch {
             *mark = SectorMark {
