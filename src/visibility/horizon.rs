@@ -360,6 +360,17 @@ impl Horizon {
         );
     }
 
+    /// Append to `out` the tag of the chain holding each bin of `bins`
+    /// (unwrapped `lo..=hi`) that has a slope.
+    pub fn holders_in(&self, (lo, hi): (i64, i64), out: &mut Vec<u64>) {
+        for b in lo..=hi.min(lo + BINS as i64 - 1) {
+            let w = wrap(b);
+            if self.slopes[w].is_finite() {
+                out.push(self.holders[w]);
+            }
+        }
+    }
+
     /// True when everything in `rect` up to height `top` is below the
     /// horizon seen from `(v, eye)`. Only valid for the parts of `rect` that
     /// lie behind every chain added so far.

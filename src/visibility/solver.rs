@@ -283,6 +283,10 @@ pub struct Solver<'a> {
     /// bins at the end of the previous sample of the run, queued early for
     /// the next one (docs/DESIGN.md, "Chains carried along a run").
     carried: Vec<u64>,
+    /// Tags of the chains that held the bins of the objects this sample
+    /// had to sweep for before the horizon hid them, carried to the next
+    /// sample with the holders of the whole horizon.
+    carried_next: Vec<u64>,
 }
 
 impl<'a> Solver<'a> {
@@ -317,6 +321,7 @@ impl<'a> Solver<'a> {
             epoch: 1,
             sample_epoch: 1,
             carried: Vec::new(),
+            carried_next: Vec::new(),
         }
     }
 
@@ -370,6 +375,7 @@ impl<'a> Solver<'a> {
             // all they hid here. Only how soon "hidden" is found depends on
             // them, never a verdict.
             self.carried.clear();
+            self.carried.append(&mut self.carried_next);
             self.horizon.holders(&mut self.carried);
             self.carried.sort_unstable();
             self.carried.dedup();
@@ -452,6 +458,7 @@ impl<'a> Solver<'a> {
         // The cull map is drawn only when a not yet visible object that
         // overlaps the window is tested.
         self.window.place_around(v, self.near_field);
+        self.carried_next.clear();
         let mut drawn = false;
         self.horizon.clear();
         if let Some(bins) = interest {
@@ -574,6 +581,11 @@ impl<'a> Solver<'a> {
         };
         while self.sweep_one_more_ring(v, r, sectors) {
             if self.enter_chains_nearer(v, r) && self.horizon.hides_rect(v, self.eye, rect, top) {
+                // The chains holding the item's bins now are carried to
+                // the next sample too: it had to sweep for them here.
+                if let Some(bins) = rect_bins(v, rect) {
+                    self.horizon.holders_in(bins, &mut self.carried_next);
+                }
                 return true;
             }
         }
