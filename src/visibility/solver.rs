@@ -564,16 +564,28 @@ impl<'a> Solver<'a> {
     /// there is already the answer. Only otherwise is it grown to `r` and
     /// asked again (docs/DESIGN.md, "Growing the horizon only when asked").
     fn hidden_by_chains_nearer(&mut self, v: DVec2, r: f64, rect: &Rect, top: f64) -> bool {
+        let hidden = self.grow_until_hidden(v, r, rect, top);
+        if hidden && let Some(bins) = rect_bins(v, rect) {
+            // The chains holding the object's bins now are carried on to
+            // the next sample with the holders of the whole horizon
+            // (docs/DESIGN.md, "Chains carried along a run").
+            self.horizon.holders_in(bins, &mut self.carried_next);
+        }
+        hidden
+    }
+
+    /// [`Solver::hidden_by_chains_nearer`] without the note of what hid it.
+    fn grow_until_hidden(&mut self, v: DVec2, r: f64, rect: &Rect, top: f64) -> bool {
         if self.hidden_by_chains_found(v, r, rect, top) {
             return true;
         }
         // Ring by ring, the chains nearer than r enter as they are found,
         // and the item is asked again whenever the horizon changed:
         // "hidden" is final at once, "not hidden" only once every ring out
-        // to r is swept.
-        // Only the chains that can meet the item's directions decide it:
-        // the sweep goes out to r in the item's sectors only (in every
-        // direction with the skips off, for tests to compare with).
+        // to r is swept. Only the chains that can meet the item's
+        // directions decide it: the sweep goes out to r in the item's
+        // sectors only (in every direction with the skips off, for tests
+        // to compare with).
         let sectors = if self.horizon.skip_hidden {
             rect_sectors(v, rect)
         } else {
@@ -581,11 +593,6 @@ impl<'a> Solver<'a> {
         };
         while self.sweep_one_more_ring(v, r, sectors) {
             if self.enter_chains_nearer(v, r) && self.horizon.hides_rect(v, self.eye, rect, top) {
-                // The chains holding the item's bins now are carried to
-                // the next sample too: it had to sweep for them here.
-                if let Some(bins) = rect_bins(v, rect) {
-                    self.horizon.holders_in(bins, &mut self.carried_next);
-                }
                 return true;
             }
         }
