@@ -17,8 +17,12 @@ use glam::DVec2;
 
 use super::bitset::ObjectSet;
 use super::cullmap::CullWindow;
-use super::horizon::{ALL_SECTORS, Horizon, SECTORS, Sectors, bins_overlap, floor_i64, rect_bins, rect_sectors};
-use super::index::{MAX_CHAIN_PIECES, MAX_EDGE_PIECE, NO_PARENT, NODE_LEVELS, NODE_SHIFTS, SceneIndex};
+use super::horizon::{
+    ALL_SECTORS, Horizon, SECTORS, Sectors, bins_overlap, floor_i64, rect_bins, rect_sectors,
+};
+use super::index::{
+    MAX_CHAIN_PIECES, MAX_EDGE_PIECE, NO_PARENT, NODE_LEVELS, NODE_SHIFTS, SceneIndex,
+};
 use crate::model::{Rect, distance_to_segment};
 
 /// Default half-size in metres of the near-field cull map.
