@@ -159,12 +159,27 @@ impl QueuedChain {
 /// to be in the horizon before an item farther than its farthest point is
 /// tested, and the order in which chains enter does not change the horizon
 /// (a per-bin max), so a coarse order is enough.
-#[derive(Default)]
 struct ChainQueue {
     slots: Vec<Vec<QueuedChain>>,
     /// Every slot below this one is empty.
     first: usize,
     len: usize,
+    /// Per first piece, the `round` in which its chain was last queued.
+    queued_in: Vec<u32>,
+    round: u32,
+}
+
+impl Default for ChainQueue {
+    fn default() -> Self {
+        ChainQueue {
+            slots: Vec::new(),
+            first: 0,
+            len: 0,
+            queued_in: Vec::new(),
+            // Not the 0 that a fresh `queued_in` holds.
+            round: 1,
+        }
+    }
 }
 
 impl ChainQueue {
@@ -175,6 +190,22 @@ impl ChainQueue {
         }
         self.first = 0;
         self.len = 0;
+        self.round = self.round.wrapping_add(1);
+        if self.round == 0 {
+            self.queued_in.iter_mut().for_each(|r| *r = 0);
+            self.round = 1;
+        }
+    }
+
+    /// Whether the chain starting at piece `e` is queued for the first
+    /// time since the last [`ChainQueue::clear`] (a sample gives each first
+    /// piece one piece count, so the same first piece is the same chain);
+    /// marks it queued.
+    fn first_time(&mut self, e: u32, pieces_total: usize) -> bool {
+        if self.queued_in.len() < pieces_total {
+            self.queued_in.resize(pieces_total, 0);
+        }
+        std::mem::replace(&mut self.queued_in[e as usize], self.round) != self.round
     }
 
     fn push(&mut self, d: f64, e: u32, pieces: u32, bucket: u32) {
@@ -483,7 +514,9 @@ impl<'a> Solver<'a> {
         for &tag in &self.carried {
             let (e, c) = QueuedChain::of_tag(tag);
             let pieces = c.pieces();
-            if edge_stride(vc, index.edges[e as usize].a) + 1 == pieces {
+            if edge_stride(vc, index.edges[e as usize].a) + 1 == pieces
+                && self.chains.first_time(e, index.edges.len())
+            {
                 let reach = chain_reach(index, v, e, pieces);
                 self.chains.push(reach, e, pieces, c.bucket());
             }
@@ -907,7 +940,7 @@ fn queue_bucket_chains(
     if let Some(stride) = stride {
         let pieces = stride + 1;
         for &e in index.bucket_starts_strided(bucket, stride) {
-            if index.edges[e as usize].height > eye {
+            if index.edges[e as usize].height > eye && chains.first_time(e, index.edges.len()) {
                 chains.push(chain_reach(index, v, e, pieces), e, pieces, bucket as u32);
             }
         }
@@ -916,7 +949,10 @@ fn queue_bucket_chains(
     for &e in index.bucket_starts(bucket) {
         let edge = &index.edges[e as usize];
         let stride = edge_stride(vc, edge.a);
-        if !edge.ring_pos.is_multiple_of(stride) || edge.height <= eye {
+        if !edge.ring_pos.is_multiple_of(stride)
+            || edge.height <= eye
+            || !chains.first_time(e, index.edges.len())
+        {
             continue;
         }
         let pieces = stride + 1;
