@@ -159,27 +159,16 @@ impl QueuedChain {
 /// to be in the horizon before an item farther than its farthest point is
 /// tested, and the order in which chains enter does not change the horizon
 /// (a per-bin max), so a coarse order is enough.
+#[derive(Default)]
 struct ChainQueue {
     slots: Vec<Vec<QueuedChain>>,
     /// Every slot below this one is empty.
     first: usize,
     len: usize,
-    /// Per first piece, the `round` in which its chain was last queued.
-    queued_in: Vec<u32>,
-    round: u32,
-}
-
-impl Default for ChainQueue {
-    fn default() -> Self {
-        ChainQueue {
-            slots: Vec::new(),
-            first: 0,
-            len: 0,
-            queued_in: Vec::new(),
-            // Not the 0 that a fresh `queued_in` holds.
-            round: 1,
-        }
-    }
+    /// One bit per first piece: its chain was queued since the last
+    /// [`ChainQueue::clear`]; `marked` lists the pieces whose bit is set.
+    queued: Vec<u64>,
+    marked: Vec<u32>,
 }
 
 impl ChainQueue {
@@ -190,10 +179,8 @@ impl ChainQueue {
         }
         self.first = 0;
         self.len = 0;
-        self.round = self.round.wrapping_add(1);
-        if self.round == 0 {
-            self.queued_in.iter_mut().for_each(|r| *r = 0);
-            self.round = 1;
+        for e in self.marked.drain(..) {
+            self.queued[e as usize / 64] = 0;
         }
     }
 
@@ -202,10 +189,17 @@ impl ChainQueue {
     /// piece one piece count, so the same first piece is the same chain);
     /// marks it queued.
     fn first_time(&mut self, e: u32, pieces_total: usize) -> bool {
-        if self.queued_in.len() < pieces_total {
-            self.queued_in.resize(pieces_total, 0);
+        let words = pieces_total.div_ceil(64);
+        if self.queued.len() < words {
+            self.queued.resize(words, 0);
         }
-        std::mem::replace(&mut self.queued_in[e as usize], self.round) != self.round
+        let (word, bit) = (e as usize / 64, 1u64 << (e % 64));
+        let fresh = self.queued[word] & bit == 0;
+        if fresh {
+            self.queued[word] |= bit;
+            self.marked.push(e);
+        }
+        fresh
     }
 
     fn push(&mut self, d: f64, e: u32, pieces: u32, bucket: u32) {
