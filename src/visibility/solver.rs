@@ -1222,3 +1222,46 @@ fn contains(outer: &Rect, inner: &Rect) -> bool {
         && inner.max.x <= outer.max.x
         && inner.max.y <= outer.max.y
 }
+
+#[cfg(test)]
+mod tests {
+    use super::ChainQueue;
+
+    #[test]
+    fn a_chain_is_queued_once_until_the_queue_is_cleared() {
+        let mut queue = ChainQueue::default();
+        let pieces = 200;
+        assert!(queue.first_time(3, pieces));
+        assert!(!queue.first_time(3, pieces));
+        assert!(queue.first_time(64, pieces));
+        assert!(queue.first_time(65, pieces));
+        assert!(!queue.first_time(64, pieces));
+        assert!(queue.first_time(199, pieces));
+        queue.clear();
+        for e in [3, 64, 65, 199] {
+            assert!(queue.first_time(e, pieces), "piece {e} after clear");
+        }
+        assert!(!queue.first_time(65, pieces));
+    }
+
+    #[test]
+    fn queued_chains_come_out_once_nearest_slots_first() {
+        let mut queue = ChainQueue::default();
+        for (d, e) in [(30.0, 1), (2.0, 2), (9.5, 3), (9.0, 4)] {
+            queue.push(d, e, 2, 0);
+        }
+        let mut out = Vec::new();
+        queue.take_nearer(9.2, &mut out);
+        let mut got: Vec<u32> = out.iter().map(|c| c.first).collect();
+        got.sort_unstable();
+        assert_eq!(got, vec![2, 4]);
+        out.clear();
+        queue.take_nearer(100.0, &mut out);
+        let mut got: Vec<u32> = out.iter().map(|c| c.first).collect();
+        got.sort_unstable();
+        assert_eq!(got, vec![1, 3]);
+        out.clear();
+        queue.take_nearer(1000.0, &mut out);
+        assert!(out.is_empty());
+    }
+}
