@@ -1083,57 +1083,45 @@ impl Sweep<'_, '_> {
     }
 
     /// Where the stretch of buckets from `i` onwards that shares nodes of
-    /// `level` with `i` ends (at most `end`), when every node of `level`
-    /// holding `(i, along)` for the given lines is hidden (or the line is
-    /// outside the grid); `None` otherwise. `at(i, line)` is the bucket.
+    /// `level` with `i` ends (at most `end`), when the node of `level`
+    /// holding bucket `(x, y)` is passed over; `None` otherwise.
     fn hidden_stretch(
         &mut self,
         level: usize,
         i: usize,
         end: usize,
-        lines: [Option<usize>; 2],
-        at: impl Fn(usize, usize) -> (usize, usize),
+        (x, y): (usize, usize),
     ) -> Option<usize> {
-        for line in lines.into_iter().flatten() {
-            let (x, y) = at(i, line);
-            if !self.node_skipped(level, x, y) {
-                return None;
-            }
+        if !self.node_skipped(level, x, y) {
+            return None;
         }
         let side = 1usize << NODE_SHIFTS[level];
         Some((i | (side - 1)).min(end))
     }
 
-    /// Walk buckets `lo..=hi` along a pair of lines (two rows, or two
-    /// columns), visiting `at(i, line)` for each line in turn at every `i`,
-    /// and jumping over stretches whose nodes are hidden on both lines.
-    fn walk(
-        &mut self,
-        lo: usize,
-        hi: usize,
-        lines: [Option<usize>; 2],
-        at: impl Fn(usize, usize) -> (usize, usize) + Copy,
-    ) {
+    /// Walk buckets `at(lo)..=at(hi)` along one row or column, jumping over
+    /// the stretches whose nodes are passed over.
+    fn walk(&mut self, lo: usize, hi: usize, at: impl Fn(usize) -> (usize, usize)) {
         let mut i = lo;
         'walk: while i <= hi {
             for level in (0..NODE_LEVELS).rev() {
-                if let Some(last) = self.hidden_stretch(level, i, hi, lines, at) {
+                if let Some(last) = self.hidden_stretch(level, i, hi, at(i)) {
                     i = last + 1;
                     continue 'walk;
                 }
             }
-            for line in lines.into_iter().flatten() {
-                let (x, y) = at(i, line);
-                self.bucket(x, y);
-            }
+            let (x, y) = at(i);
+            self.bucket(x, y);
             i += 1;
         }
     }
 
     /// Every bucket at Chebyshev distance exactly `ring` from the sample's
-    /// bucket, in the order of [`UniformGrid::for_each_in_ring`]: the
-    /// bottom and top rows left to right, then the left and right columns
-    /// upwards.
+    /// bucket: the bottom row, then the top row, left to right, then the
+    /// left and the right column upwards. The order changes no verdict:
+    /// the horizon does not change during a ring, and it is a per-bin max
+    /// whatever the order in which chains enter; at most it changes which
+    /// of two equally steep chains holds a bin and is carried on.
     fn ring(&mut self, ring: i64) {
         let (nx, ny) = self.index.bucket_dims();
         let (nx, ny) = (nx as i64, ny as i64);
@@ -1147,13 +1135,17 @@ impl Sweep<'_, '_> {
         }
         let rows = [inside(cy - ring, ny), inside(cy + ring, ny)];
         let (x0, x1) = ((cx - ring).max(0), (cx + ring).min(nx - 1));
-        if rows.iter().any(Option::is_some) && x0 <= x1 {
-            self.walk(x0 as usize, x1 as usize, rows, |i, line| (i, line));
+        if x0 <= x1 {
+            for row in rows.into_iter().flatten() {
+                self.walk(x0 as usize, x1 as usize, |i| (i, row));
+            }
         }
         let columns = [inside(cx - ring, nx), inside(cx + ring, nx)];
         let (y0, y1) = ((cy - ring + 1).max(0), (cy + ring - 1).min(ny - 1));
-        if columns.iter().any(Option::is_some) && y0 <= y1 {
-            self.walk(y0 as usize, y1 as usize, columns, |i, line| (line, i));
+        if y0 <= y1 {
+            for column in columns.into_iter().flatten() {
+                self.walk(y0 as usize, y1 as usize, |i| (column, i));
+            }
         }
     }
 }
