@@ -159,19 +159,29 @@ impl QueuedChain {
 /// to be in the horizon before an item farther than its farthest point is
 /// tested, and the order in which chains enter does not change the horizon
 /// (a per-bin max), so a coarse order is enough.
-#[derive(Default)]
 struct ChainQueue {
     slots: Vec<Vec<QueuedChain>>,
     /// Every slot below this one is empty.
     first: usize,
     len: usize,
-    /// One bit per first piece: its chain was queued since the last
-    /// [`ChainQueue::clear`]; `marked` lists the pieces whose bit is set.
-    queued: Vec<u64>,
+    /// The first pieces whose chain was queued since the last
+    /// [`ChainQueue::clear`], as a set and as a list (to clear the set).
+    queued: ObjectSet,
     marked: Vec<u32>,
 }
 
 impl ChainQueue {
+    /// An empty queue for a scene of `pieces` occluder pieces.
+    fn new(pieces: usize) -> Self {
+        ChainQueue {
+            slots: Vec::new(),
+            first: 0,
+            len: 0,
+            queued: ObjectSet::new(pieces),
+            marked: Vec::new(),
+        }
+    }
+
     fn clear(&mut self) {
         let start = self.first.min(self.slots.len());
         for slot in &mut self.slots[start..] {
@@ -180,7 +190,7 @@ impl ChainQueue {
         self.first = 0;
         self.len = 0;
         for e in self.marked.drain(..) {
-            self.queued[e as usize / 64] = 0;
+            self.queued.remove(e as usize);
         }
     }
 
@@ -188,21 +198,24 @@ impl ChainQueue {
     /// time since the last [`ChainQueue::clear`] (a sample gives each first
     /// piece one piece count, so the same first piece is the same chain);
     /// marks it queued.
-    fn first_time(&mut self, e: u32, pieces_total: usize) -> bool {
-        let words = pieces_total.div_ceil(64);
-        if self.queued.len() < words {
-            self.queued.resize(words, 0);
-        }
-        let (word, bit) = (e as usize / 64, 1u64 << (e % 64));
-        let fresh = self.queued[word] & bit == 0;
+    fn first_time(&mut self, e: u32) -> bool {
+        let fresh = !self.queued.contains(e as usize);
         if fresh {
-            self.queued[word] |= bit;
+            self.queued.insert(e as usize);
             self.marked.push(e);
         }
         fresh
     }
 
-    fn push(&mut self, d: f64, e: u32, pieces: u32, bucket: u32) {
+    /// Queue the chain of `pieces` pieces starting at piece `e`, at its
+    /// reach (computed only here), unless it was queued since the last
+    /// [`ChainQueue::clear`]: a second copy would enter no earlier and add
+    /// nothing (docs/DESIGN.md, "Chains carried along a run").
+    fn push(&mut self, e: u32, pieces: u32, bucket: u32, reach: impl FnOnce() -> f64) {
+        if !self.first_time(e) {
+            return;
+        }
+        let d = reach();
         // A chain is never found after items beyond it were tested (the
         // bucket sweep runs ahead); should one be, it simply enters late,
         // which can only leave more visible.
@@ -328,7 +341,7 @@ impl<'a> Solver<'a> {
             horizon: Horizon::default(),
             gathered: Vec::new(),
             queue: BinaryHeap::new(),
-            chains: ChainQueue::default(),
+            chains: ChainQueue::new(index.edges.len()),
             ready: Vec::new(),
             swept_rings: [-1; SECTORS],
             bucket_queued: vec![0; index.bucket_count()],
@@ -508,11 +521,9 @@ impl<'a> Solver<'a> {
         for &tag in &self.carried {
             let (e, c) = QueuedChain::of_tag(tag);
             let pieces = c.pieces();
-            if edge_stride(vc, index.edges[e as usize].a) + 1 == pieces
-                && self.chains.first_time(e, index.edges.len())
-            {
-                let reach = chain_reach(index, v, e, pieces);
-                self.chains.push(reach, e, pieces, c.bucket());
+            if edge_stride(vc, index.edges[e as usize].a) + 1 == pieces {
+                self.chains
+                    .push(e, pieces, c.bucket(), || chain_reach(index, v, e, pieces));
             }
         }
         self.queue.push(Reverse((
@@ -934,8 +945,10 @@ fn queue_bucket_chains(
     if let Some(stride) = stride {
         let pieces = stride + 1;
         for &e in index.bucket_starts_strided(bucket, stride) {
-            if index.edges[e as usize].height > eye && chains.first_time(e, index.edges.len()) {
-                chains.push(chain_reach(index, v, e, pieces), e, pieces, bucket as u32);
+            if index.edges[e as usize].height > eye {
+                chains.push(e, pieces, bucket as u32, || {
+                    chain_reach(index, v, e, pieces)
+                });
             }
         }
         return;
@@ -943,14 +956,13 @@ fn queue_bucket_chains(
     for &e in index.bucket_starts(bucket) {
         let edge = &index.edges[e as usize];
         let stride = edge_stride(vc, edge.a);
-        if !edge.ring_pos.is_multiple_of(stride)
-            || edge.height <= eye
-            || !chains.first_time(e, index.edges.len())
-        {
+        if !edge.ring_pos.is_multiple_of(stride) || edge.height <= eye {
             continue;
         }
         let pieces = stride + 1;
-        chains.push(chain_reach(index, v, e, pieces), e, pieces, bucket as u32);
+        chains.push(e, pieces, bucket as u32, || {
+            chain_reach(index, v, e, pieces)
+        });
     }
 }
 
@@ -1221,39 +1233,35 @@ mod tests {
 
     #[test]
     fn a_chain_is_queued_once_until_the_queue_is_cleared() {
-        let mut queue = ChainQueue::default();
-        let pieces = 200;
-        assert!(queue.first_time(3, pieces));
-        assert!(!queue.first_time(3, pieces));
-        assert!(queue.first_time(64, pieces));
-        assert!(queue.first_time(65, pieces));
-        assert!(!queue.first_time(64, pieces));
-        assert!(queue.first_time(199, pieces));
+        let mut queue = ChainQueue::new(200);
+        assert!(queue.first_time(3));
+        assert!(!queue.first_time(3));
+        assert!(queue.first_time(64));
+        assert!(queue.first_time(65));
+        assert!(!queue.first_time(64));
+        assert!(queue.first_time(199));
         queue.clear();
         for e in [3, 64, 65, 199] {
-            assert!(queue.first_time(e, pieces), "piece {e} after clear");
+            assert!(queue.first_time(e), "piece {e} after clear");
         }
-        assert!(!queue.first_time(65, pieces));
+        assert!(!queue.first_time(65));
     }
 
     #[test]
     fn queued_chains_come_out_once_nearest_slots_first() {
-        let mut queue = ChainQueue::default();
+        let mut queue = ChainQueue::new(8);
         for (d, e) in [(30.0, 1), (2.0, 2), (9.5, 3), (9.0, 4)] {
-            queue.push(d, e, 2, 0);
+            queue.push(e, 2, 0, || d);
         }
-        let mut out = Vec::new();
-        queue.take_nearer(9.2, &mut out);
-        let mut got: Vec<u32> = out.iter().map(|c| c.first).collect();
-        got.sort_unstable();
-        assert_eq!(got, vec![2, 4]);
-        out.clear();
-        queue.take_nearer(100.0, &mut out);
-        let mut got: Vec<u32> = out.iter().map(|c| c.first).collect();
-        got.sort_unstable();
-        assert_eq!(got, vec![1, 3]);
-        out.clear();
-        queue.take_nearer(1000.0, &mut out);
-        assert!(out.is_empty());
+        let mut take = |r: f64| {
+            let mut out = Vec::new();
+            queue.take_nearer(r, &mut out);
+            let mut firsts: Vec<u32> = out.iter().map(|c| c.first).collect();
+            firsts.sort_unstable();
+            firsts
+        };
+        assert_eq!(take(9.2), vec![2, 4]);
+        assert_eq!(take(100.0), vec![1, 3]);
+        assert!(take(1000.0).is_empty());
     }
 }
