@@ -1116,14 +1116,14 @@ impl Sweep<'_, '_> {
     fn walk(&mut self, lo: usize, hi: usize, at: impl Fn(usize) -> (usize, usize)) {
         let mut i = lo;
         'walk: while i <= hi {
+            let bucket = at(i);
             for level in (0..NODE_LEVELS).rev() {
-                if let Some(last) = self.hidden_stretch(level, i, hi, at(i)) {
+                if let Some(last) = self.hidden_stretch(level, i, hi, bucket) {
                     i = last + 1;
                     continue 'walk;
                 }
             }
-            let (x, y) = at(i);
-            self.bucket(x, y);
+            self.bucket(bucket.0, bucket.1);
             i += 1;
         }
     }
