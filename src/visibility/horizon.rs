@@ -387,25 +387,16 @@ impl Horizon {
     }
 
     fn hides_rect_by(&self, v: DVec2, eye: f64, rect: &Rect, top: f64, margin: f64) -> bool {
-        let r_min = v.clamp(rect.min, rect.max).distance(v);
-        if r_min < 1e-6 {
+        self.hides_view(&RectView::with_margin(v, eye, rect, top, margin))
+    }
+
+    /// [`Horizon::hides_rect`] of the rectangle `view` was made from: the
+    /// same answer, bit for bit, without finding its bins and slope again.
+    pub fn hides_view(&self, view: &RectView) -> bool {
+        let Some((lo, hi)) = view.bins else {
             return false;
-        }
-        let (lo, hi) = bins_of(v, rect);
-        let need = if top >= eye {
-            (top - eye) / r_min
-        } else {
-            let r_max = corners(rect)
-                .iter()
-                .map(|c| c.distance(v))
-                .fold(0.0, f64::max);
-            (top - eye) / r_max
         };
-        let need = if margin > 0.0 {
-            need + need.abs() * margin + 1e-12
-        } else {
-            need
-        };
+        let need = view.need;
         let Some((a, b)) = self.interest else {
             return self.all_at_least(lo, hi, need);
         };
@@ -458,6 +449,67 @@ pub fn rect_bins(v: DVec2, rect: &Rect) -> Option<(i64, i64)> {
     Some(bins_of(v, rect))
 }
 
+/// A rectangle up to a top height, seen from one point at eye height: the
+/// bins its directions span ([`rect_bins`]) and the slope a horizon must
+/// reach in each of them to hide it. Found once, it answers
+/// [`Horizon::hides_view`] at every state of a sample's horizon, which is
+/// what [`Horizon::hides_rect`] computes afresh each time.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct RectView {
+    /// `None` when the point is (nearly) in the rectangle: never hidden.
+    bins: Option<(i64, i64)>,
+    need: f64,
+}
+
+impl RectView {
+    /// `rect` up to `top`, seen from `v` at height `eye`.
+    pub fn new(v: DVec2, eye: f64, rect: &Rect, top: f64) -> Self {
+        Self::with_margin(v, eye, rect, top, 0.0)
+    }
+
+    /// With the slope needed raised by the relative `margin` (plus 1e-12)
+    /// when `margin` is positive.
+    fn with_margin(v: DVec2, eye: f64, rect: &Rect, top: f64, margin: f64) -> Self {
+        let r_min = v.clamp(rect.min, rect.max).distance(v);
+        if r_min < 1e-6 {
+            return RectView {
+                bins: None,
+                need: f64::INFINITY,
+            };
+        }
+        let need = if top >= eye {
+            (top - eye) / r_min
+        } else {
+            let r_max = corners(rect)
+                .iter()
+                .map(|c| c.distance(v))
+                .fold(0.0, f64::max);
+            (top - eye) / r_max
+        };
+        let need = if margin > 0.0 {
+            need + need.abs() * margin + 1e-12
+        } else {
+            need
+        };
+        RectView {
+            bins: Some(bins_of(v, rect)),
+            need,
+        }
+    }
+
+    /// The rectangle's bins, as [`rect_bins`] gives them.
+    pub fn bins(&self) -> Option<(i64, i64)> {
+        self.bins
+    }
+
+    /// The sectors of the rectangle's bins with a bin more on each side:
+    /// they hold the bin of every point of the rectangle (every sector when
+    /// the point is (nearly) in it).
+    pub fn sectors(&self) -> Sectors {
+        sectors_of_bins(self.bins)
+    }
+}
+
 /// A set of sectors of directions, one bit each: the edge buckets are
 /// swept by direction (docs/DESIGN.md, "Sweeping by direction").
 pub type Sectors = u128;
@@ -472,12 +524,12 @@ const _: () = assert!(SECTORS == Sectors::BITS as usize);
 /// Every sector.
 pub const ALL_SECTORS: Sectors = Sectors::MAX;
 
-/// The sectors holding the bins that the directions from `v` to `rect`
-/// span, with a bin more on each side (far more than any rounding of the
-/// pseudo-angles, so the mask holds the bins of every point of `rect`);
-/// every sector when `v` is (nearly) in `rect`.
-pub fn rect_sectors(v: DVec2, rect: &Rect) -> Sectors {
-    let Some((lo, hi)) = rect_bins(v, rect) else {
+/// The sectors holding the bins `bins` (as [`rect_bins`] gives them) with a
+/// bin more on each side (far more than any rounding of the pseudo-angles,
+/// so for a rectangle's bins the mask holds the bins of every point of it);
+/// every sector for `None` (the point is (nearly) in the rectangle).
+fn sectors_of_bins(bins: Option<(i64, i64)>) -> Sectors {
+    let Some((lo, hi)) = bins else {
         return ALL_SECTORS;
     };
     let (lo, hi) = (lo - 1, hi + 1);
@@ -609,7 +661,7 @@ mod tests {
         ) {
             let v = DVec2::new(vx, vy);
             let rect = Rect { min: DVec2::new(x, y), max: DVec2::new(x + w, y + h) };
-            let mask = rect_sectors(v, &rect);
+            let mask = RectView::new(v, 0.0, &rect, 1.0).sectors();
             let sector_of = |p: DVec2| {
                 let bin = wrap(bin_of(pseudo_angle(p - v)));
                 (1 as Sectors) << (bin / SECTOR_BINS)

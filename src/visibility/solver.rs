@@ -18,7 +18,7 @@ use glam::DVec2;
 use super::bitset::ObjectSet;
 use super::cullmap::CullWindow;
 use super::horizon::{
-    ALL_SECTORS, Horizon, SECTORS, Sectors, bins_overlap, floor_i64, rect_bins, rect_sectors,
+    ALL_SECTORS, Horizon, RectView, SECTORS, Sectors, bins_overlap, floor_i64, rect_bins,
 };
 use super::index::{
     MAX_CHAIN_PIECES, MAX_EDGE_PIECE, NO_PARENT, NODE_LEVELS, NODE_SHIFTS, SceneIndex,
@@ -275,12 +275,42 @@ struct NodeMark {
     hidden: bool,
 }
 
-/// The sectors of a bucket's or node's chain rectangle, seen from the
-/// sample of `sample_epoch`.
+/// A bucket's or node's chain rectangle up to its height, seen from the
+/// sample of `sample_epoch`: its sectors and its view for the horizon
+/// tests, found once per sample (the horizon changes during a sample, the
+/// rectangle's bins and the slope it needs do not).
 #[derive(Clone, Copy, Default)]
-struct SectorMark {
+struct ViewMark {
     sample_epoch: u64,
     sectors: Sectors,
+    view: RectView,
+}
+
+/// `mark`, made for the sample of `sample_epoch` (seen from `(v, eye)`)
+/// from `rect` at `height` unless it was already.
+fn view_mark<'m>(
+    mark: &'m mut ViewMark,
+    sample_epoch: u64,
+    (v, eye): (DVec2, f64),
+    rect: &Rect,
+    height: f64,
+) -> &'m ViewMark {
+    if mark.sample_epoch != sample_epoch {
+        *mark = if rect.is_empty() {
+            ViewMark {
+                sample_epoch,
+                ..ViewMark::default()
+            }
+        } else {
+            let view = RectView::new(v, eye, rect, height);
+            ViewMark {
+                sample_epoch,
+                sectors: view.sectors(),
+                view,
+            }
+        };
+    }
+    mark
 }
 
 /// Reusable per-thread state for solving samples.
@@ -302,9 +332,9 @@ pub struct Solver<'a> {
     /// (a bucket is queued at most once per sample).
     bucket_queued: Vec<u64>,
     /// Per edge bucket, and per node of each level of the bucket
-    /// hierarchy, the sectors of its chain rectangle as seen from the
-    /// sample of the epoch kept with it.
-    sector_marks: [Vec<SectorMark>; NODE_LEVELS + 1],
+    /// hierarchy, its chain rectangle's sectors and view as seen from the
+    /// sample of the epoch kept with them.
+    view_marks: [Vec<ViewMark>; NODE_LEVELS + 1],
     /// Per pyramid node, the greatest height of its objects not yet in the
     /// unit's visible set (`NEG_INFINITY` when every one is).
     remaining: Vec<f64>,
@@ -345,13 +375,13 @@ impl<'a> Solver<'a> {
             ready: Vec::new(),
             swept_rings: [-1; SECTORS],
             bucket_queued: vec![0; index.bucket_count()],
-            sector_marks: std::array::from_fn(|l| {
+            view_marks: std::array::from_fn(|l| {
                 let len = if l < NODE_LEVELS {
                     index.bucket_nodes(l).len()
                 } else {
                     index.bucket_count()
                 };
-                vec![SectorMark::default(); len]
+                vec![ViewMark::default(); len]
             }),
             remaining: Vec::new(),
             raster_stamp: vec![0; index.edges.len()],
@@ -542,7 +572,8 @@ impl<'a> Solver<'a> {
                         continue;
                     }
                     let node = &index.pyramid[n as usize];
-                    if self.hidden_by_chains_found(v, r, &node.rect, top) {
+                    let view = RectView::new(v, self.eye, &node.rect, top);
+                    if self.hidden_by_chains_found(v, r, &view) {
                         continue;
                     }
                     for &c in &node.children {
@@ -581,10 +612,11 @@ impl<'a> Solver<'a> {
     fn object_hidden(&mut self, v: DVec2, r: f64, o: u32, window: &Rect, drawn: &mut bool) -> bool {
         let index = self.index;
         let object = &index.objects[o as usize];
+        let view = RectView::new(v, self.eye, &object.rect, object.height);
         if !contains(window, &object.rect) {
-            return self.hidden_by_chains_nearer(v, r, &object.rect, object.height);
+            return self.hidden_by_chains_nearer(v, r, &view);
         }
-        if self.hidden_by_chains_found(v, r, &object.rect, object.height) {
+        if self.hidden_by_chains_found(v, r, &view) {
             return true;
         }
         if !*drawn {
@@ -595,19 +627,20 @@ impl<'a> Solver<'a> {
         let mut outside = false;
         self.window
             .spans_hidden(&object.spans, object.height, &mut outside)
-            || self.hidden_by_chains_nearer(v, r, &object.rect, object.height)
+            || self.hidden_by_chains_nearer(v, r, &view)
     }
 
     /// Whether the horizon of the chains nearer than `r` (the distance of
-    /// `rect`) hides `rect` up to `top`. The horizon is first asked as it
+    /// the rectangle of `view`) hides that rectangle up to its top (both
+    /// seen from `v`, found once per item). The horizon is first asked as it
     /// is: it holds some of those chains only (it is never grown past the
     /// distance of the item being tested, and items come nearest first),
     /// and a horizon of fewer chains is lower in every bin, so "hidden"
     /// there is already the answer. Only otherwise is it grown to `r` and
     /// asked again (docs/DESIGN.md, "Growing the horizon only when asked").
-    fn hidden_by_chains_nearer(&mut self, v: DVec2, r: f64, rect: &Rect, top: f64) -> bool {
-        let hidden = self.grow_until_hidden(v, r, rect, top);
-        if hidden && let Some(bins) = rect_bins(v, rect) {
+    fn hidden_by_chains_nearer(&mut self, v: DVec2, r: f64, view: &RectView) -> bool {
+        let hidden = self.grow_until_hidden(v, r, view);
+        if hidden && let Some(bins) = view.bins() {
             // The chains holding the object's bins now are carried on to
             // the next sample with the holders of the whole horizon
             // (docs/DESIGN.md, "Chains carried along a run").
@@ -617,8 +650,8 @@ impl<'a> Solver<'a> {
     }
 
     /// [`Solver::hidden_by_chains_nearer`] without the note of what hid it.
-    fn grow_until_hidden(&mut self, v: DVec2, r: f64, rect: &Rect, top: f64) -> bool {
-        if self.hidden_by_chains_found(v, r, rect, top) {
+    fn grow_until_hidden(&mut self, v: DVec2, r: f64, view: &RectView) -> bool {
+        if self.hidden_by_chains_found(v, r, view) {
             return true;
         }
         // Ring by ring, the chains nearer than r enter as they are found,
@@ -629,28 +662,29 @@ impl<'a> Solver<'a> {
         // sectors only (in every direction with the skips off, for tests
         // to compare with).
         let sectors = if self.horizon.skip_hidden {
-            rect_sectors(v, rect)
+            view.sectors()
         } else {
             ALL_SECTORS
         };
         while self.sweep_one_more_ring(v, r, sectors) {
-            if self.enter_chains_nearer(v, r) && self.horizon.hides_rect(v, self.eye, rect, top) {
+            if self.enter_chains_nearer(v, r) && self.horizon.hides_view(view) {
                 return true;
             }
         }
         false
     }
 
-    /// Whether the chains found so far hide `rect` (at distance `r`) up to
-    /// `top`: first those in the horizon, then with the queued ones nearer
+    /// Whether the chains found so far hide the rectangle of `view` (at
+    /// distance `r`) up to its top: first those in the horizon, then with
+    /// the queued ones nearer
     /// than `r` entered, asked again only if they changed it. No bucket is
     /// swept. A pyramid node is tested only this way: a node only saves
     /// work (when it is not shown hidden, its children and objects are
     /// queued and each object gets its own full test), so a node never
     /// makes the search sweep farther; only objects do.
-    fn hidden_by_chains_found(&mut self, v: DVec2, r: f64, rect: &Rect, top: f64) -> bool {
-        self.horizon.hides_rect(v, self.eye, rect, top)
-            || (self.enter_chains_nearer(v, r) && self.horizon.hides_rect(v, self.eye, rect, top))
+    fn hidden_by_chains_found(&mut self, v: DVec2, r: f64, view: &RectView) -> bool {
+        self.horizon.hides_view(view)
+            || (self.enter_chains_nearer(v, r) && self.horizon.hides_view(view))
     }
 
     /// Sweep one more ring of edge buckets for the sectors of `sectors`
@@ -692,7 +726,7 @@ impl<'a> Solver<'a> {
             horizon: &self.horizon,
             marks: &mut self.node_marks,
             queued: &mut self.bucket_queued,
-            sector_marks: &mut self.sector_marks,
+            view_marks: &mut self.view_marks,
             chains: &mut self.chains,
         };
         sweep.ring(ring);
@@ -734,8 +768,8 @@ impl<'a> Solver<'a> {
                         _ => chain_bucket_hidden(
                             index,
                             &self.horizon,
-                            &mut self.node_marks,
-                            &mut self.bucket_marks,
+                            (&mut self.node_marks, &mut self.bucket_marks),
+                            &mut self.view_marks,
                             (v, eye),
                             (epoch, sample_epoch),
                             bucket as usize,
@@ -984,7 +1018,7 @@ struct Sweep<'s, 'a> {
     horizon: &'s Horizon,
     marks: &'s mut [Vec<NodeMark>; NODE_LEVELS],
     queued: &'s mut [u64],
-    sector_marks: &'s mut [Vec<SectorMark>; NODE_LEVELS + 1],
+    view_marks: &'s mut [Vec<ViewMark>; NODE_LEVELS + 1],
     chains: &'s mut ChainQueue,
 }
 
@@ -1007,7 +1041,16 @@ impl Sweep<'_, '_> {
         let rect = nodes.rect(n);
         let hidden = height <= self.eye
             || rect.is_empty()
-            || self.horizon.hides_rect(self.v, self.eye, rect, height);
+            || self.horizon.hides_view(
+                &view_mark(
+                    &mut self.view_marks[level][n],
+                    self.sample_epoch,
+                    (self.v, self.eye),
+                    rect,
+                    height,
+                )
+                .view,
+            );
         *mark = NodeMark {
             epoch: self.epoch,
             hidden,
@@ -1016,21 +1059,17 @@ impl Sweep<'_, '_> {
     }
 
     /// The sectors of `rect` (the chain rectangle of a node of `level`, or
-    /// of a bucket for `level` = `NODE_LEVELS`, number `n`), found once per
-    /// sample.
-    fn sectors_of(&mut self, level: usize, n: usize, rect: &Rect) -> Sectors {
-        let mark = &mut self.sector_marks[level][n];
-        if mark.sample_epoch != self.sample_epoch {
-            *mark = SectorMark {
-                sample_epoch: self.sample_epoch,
-                sectors: if rect.is_empty() {
-                    0
-                } else {
-                    rect_sectors(self.v, rect)
-                },
-            };
-        }
-        mark.sectors
+    /// of a bucket for `level` = `NODE_LEVELS`, number `n`, whose height is
+    /// `height`), found once per sample with its view.
+    fn sectors_of(&mut self, level: usize, n: usize, rect: &Rect, height: f64) -> Sectors {
+        view_mark(
+            &mut self.view_marks[level][n],
+            self.sample_epoch,
+            (self.v, self.eye),
+            rect,
+            height,
+        )
+        .sectors
     }
 
     /// Whether the node of `level` holding bucket `(x, y)` is passed over:
@@ -1040,7 +1079,7 @@ impl Sweep<'_, '_> {
         if self.sectors != ALL_SECTORS {
             let nodes = self.index.bucket_nodes(level);
             let n = nodes.node_of(x, y);
-            if self.sectors_of(level, n, nodes.rect(n)) & self.sectors == 0 {
+            if self.sectors_of(level, n, nodes.rect(n), nodes.height(n)) & self.sectors == 0 {
                 return true;
             }
         }
@@ -1073,8 +1112,12 @@ impl Sweep<'_, '_> {
         // Every chain the bucket can start lies in its chain rectangle over
         // all strides, so its directions lie in that rectangle's sectors.
         if self.sectors != ALL_SECTORS
-            && self.sectors_of(NODE_LEVELS, bucket, index.bucket_chain_rect(bucket, None))
-                & self.sectors
+            && self.sectors_of(
+                NODE_LEVELS,
+                bucket,
+                index.bucket_chain_rect(bucket, None),
+                height,
+            ) & self.sectors
                 == 0
         {
             return;
@@ -1169,17 +1212,19 @@ impl Sweep<'_, '_> {
 fn chain_bucket_hidden(
     index: &SceneIndex,
     horizon: &Horizon,
-    node_marks: &mut [Vec<NodeMark>; NODE_LEVELS],
-    bucket_marks: &mut [NodeMark],
+    (node_marks, bucket_marks): (&mut [Vec<NodeMark>; NODE_LEVELS], &mut [NodeMark]),
+    view_marks: &mut [Vec<ViewMark>; NODE_LEVELS + 1],
     (v, eye): (DVec2, f64),
     (epoch, sample_epoch): (u64, u64),
     bucket: usize,
 ) -> bool {
-    let test = |mark: &mut NodeMark, rect: &Rect, height: f64| {
+    let test = |mark: &mut NodeMark, view: &mut ViewMark, rect: &Rect, height: f64| {
         if mark.epoch == epoch || (mark.hidden && mark.epoch >= sample_epoch) {
             return mark.hidden;
         }
-        let hidden = height <= eye || rect.is_empty() || horizon.hides_rect(v, eye, rect, height);
+        let hidden = height <= eye
+            || rect.is_empty()
+            || horizon.hides_view(&view_mark(view, sample_epoch, (v, eye), rect, height).view);
         *mark = NodeMark { epoch, hidden };
         hidden
     };
@@ -1187,12 +1232,18 @@ fn chain_bucket_hidden(
     for level in (0..NODE_LEVELS).rev() {
         let nodes = index.bucket_nodes(level);
         let n = nodes.node_of(x, y);
-        if test(&mut node_marks[level][n], nodes.rect(n), nodes.height(n)) {
+        if test(
+            &mut node_marks[level][n],
+            &mut view_marks[level][n],
+            nodes.rect(n),
+            nodes.height(n),
+        ) {
             return true;
         }
     }
     test(
         &mut bucket_marks[bucket],
+        &mut view_marks[NODE_LEVELS][bucket],
         index.bucket_chain_rect(bucket, None),
         index.bucket_height(bucket),
     )
