@@ -393,7 +393,7 @@ impl Horizon {
     /// [`Horizon::hides_rect`] of the rectangle `view` was made from: the
     /// same answer, bit for bit, without finding its bins and slope again.
     pub fn hides_view(&self, view: &RectView) -> bool {
-        let Some((lo, hi)) = view.bins else {
+        let Some((lo, hi)) = view.bins() else {
             return false;
         };
         let need = view.need;
@@ -457,7 +457,9 @@ pub fn rect_bins(v: DVec2, rect: &Rect) -> Option<(i64, i64)> {
 #[derive(Clone, Copy, Debug, Default)]
 pub struct RectView {
     /// `None` when the point is (nearly) in the rectangle: never hidden.
-    bins: Option<(i64, i64)>,
+    /// Kept as `i32` (the bins lie in `0..2 * BINS`) so that a view is 24
+    /// bytes: the solver keeps one per bucket and node of the hierarchy.
+    bins: Option<(i32, i32)>,
     need: f64,
 }
 
@@ -492,21 +494,24 @@ impl RectView {
             need
         };
         RectView {
-            bins: Some(bins_of(v, rect)),
+            bins: Some({
+                let (lo, hi) = bins_of(v, rect);
+                (lo as i32, hi as i32)
+            }),
             need,
         }
     }
 
     /// The rectangle's bins, as [`rect_bins`] gives them.
     pub fn bins(&self) -> Option<(i64, i64)> {
-        self.bins
+        self.bins.map(|(lo, hi)| (i64::from(lo), i64::from(hi)))
     }
 
     /// The sectors of the rectangle's bins with a bin more on each side:
     /// they hold the bin of every point of the rectangle (every sector when
     /// the point is (nearly) in it).
     pub fn sectors(&self) -> Sectors {
-        sectors_of_bins(self.bins)
+        sectors_of_bins(self.bins())
     }
 }
 
@@ -538,11 +543,14 @@ fn sectors_of_bins(bins: Option<(i64, i64)>) -> Sectors {
     }
     let width = SECTOR_BINS as i64;
     let (first, last) = (lo.div_euclid(width), hi.div_euclid(width));
-    let mut mask: Sectors = 0;
-    for s in first..=last {
-        mask |= 1 << s.rem_euclid(SECTORS as i64);
+    // The sectors first..=last (mod SECTORS): a run of bits, turned to
+    // start at `first`.
+    let count = last - first + 1;
+    if count >= SECTORS as i64 {
+        return ALL_SECTORS;
     }
-    mask
+    let run: Sectors = (1 << count) - 1;
+    run.rotate_left(first.rem_euclid(SECTORS as i64) as u32)
 }
 
 /// The bins `lo..=hi` (`lo` in `0..BINS`) that the directions from `v`

@@ -276,41 +276,33 @@ struct NodeMark {
 }
 
 /// A bucket's or node's chain rectangle up to its height, seen from the
-/// sample of `sample_epoch`: its sectors and its view for the horizon
-/// tests, found once per sample (the horizon changes during a sample, the
-/// rectangle's bins and the slope it needs do not).
+/// sample of `sample_epoch`: its view for the horizon tests (and, from the
+/// view's bins, its sectors), found once per sample (the horizon changes
+/// during a sample, the rectangle's bins and the slope it needs do not).
+/// One is kept per bucket and node for each thread, so it stays small.
 #[derive(Clone, Copy, Default)]
 struct ViewMark {
     sample_epoch: u64,
-    sectors: Sectors,
     view: RectView,
 }
+const _: () = assert!(std::mem::size_of::<ViewMark>() == 32);
 
-/// `mark`, made for the sample of `sample_epoch` (seen from `(v, eye)`)
-/// from `rect` at `height` unless it was already.
-fn view_mark<'m>(
-    mark: &'m mut ViewMark,
+/// The view of `rect` (not empty) at `height`, seen from `(v, eye)` by the
+/// sample of `sample_epoch`: kept in `mark`, made unless it was already.
+fn view_mark(
+    mark: &mut ViewMark,
     sample_epoch: u64,
     (v, eye): (DVec2, f64),
     rect: &Rect,
     height: f64,
-) -> &'m ViewMark {
+) -> RectView {
     if mark.sample_epoch != sample_epoch {
-        *mark = if rect.is_empty() {
-            ViewMark {
-                sample_epoch,
-                ..ViewMark::default()
-            }
-        } else {
-            let view = RectView::new(v, eye, rect, height);
-            ViewMark {
-                sample_epoch,
-                sectors: view.sectors(),
-                view,
-            }
+        *mark = ViewMark {
+            sample_epoch,
+            view: RectView::new(v, eye, rect, height),
         };
     }
-    mark
+    mark.view
 }
 
 /// Reusable per-thread state for solving samples.
@@ -1041,16 +1033,13 @@ impl Sweep<'_, '_> {
         let rect = nodes.rect(n);
         let hidden = height <= self.eye
             || rect.is_empty()
-            || self.horizon.hides_view(
-                &view_mark(
-                    &mut self.view_marks[level][n],
-                    self.sample_epoch,
-                    (self.v, self.eye),
-                    rect,
-                    height,
-                )
-                .view,
-            );
+            || self.horizon.hides_view(&view_mark(
+                &mut self.view_marks[level][n],
+                self.sample_epoch,
+                (self.v, self.eye),
+                rect,
+                height,
+            ));
         *mark = NodeMark {
             epoch: self.epoch,
             hidden,
@@ -1060,8 +1049,11 @@ impl Sweep<'_, '_> {
 
     /// The sectors of `rect` (the chain rectangle of a node of `level`, or
     /// of a bucket for `level` = `NODE_LEVELS`, number `n`, whose height is
-    /// `height`), found once per sample with its view.
+    /// `height`), from its view, found once per sample.
     fn sectors_of(&mut self, level: usize, n: usize, rect: &Rect, height: f64) -> Sectors {
+        if rect.is_empty() {
+            return 0;
+        }
         view_mark(
             &mut self.view_marks[level][n],
             self.sample_epoch,
@@ -1069,7 +1061,7 @@ impl Sweep<'_, '_> {
             rect,
             height,
         )
-        .sectors
+        .sectors()
     }
 
     /// Whether the node of `level` holding bucket `(x, y)` is passed over:
@@ -1224,7 +1216,7 @@ fn chain_bucket_hidden(
         }
         let hidden = height <= eye
             || rect.is_empty()
-            || horizon.hides_view(&view_mark(view, sample_epoch, (v, eye), rect, height).view);
+            || horizon.hides_view(&view_mark(view, sample_epoch, (v, eye), rect, height));
         *mark = NodeMark { epoch, hidden };
         hidden
     };
