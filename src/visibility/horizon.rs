@@ -443,10 +443,14 @@ impl Horizon {
 /// directions from `v` to `rect` span, or `None` when `v` is (nearly) in
 /// `rect`.
 pub fn rect_bins(v: DVec2, rect: &Rect) -> Option<(i64, i64)> {
-    if v.clamp(rect.min, rect.max).distance(v) < 1e-6 {
-        return None;
-    }
-    Some(bins_of(v, rect))
+    nearest_and_bins(v, rect).map(|(_, bins)| bins)
+}
+
+/// The distance from `v` to the nearest point of `rect` with the bins of
+/// [`rect_bins`], or `None` when `v` is (nearly) in `rect`.
+fn nearest_and_bins(v: DVec2, rect: &Rect) -> Option<(f64, (i64, i64))> {
+    let r_min = v.clamp(rect.min, rect.max).distance(v);
+    (r_min >= 1e-6).then(|| (r_min, bins_of(v, rect)))
 }
 
 /// A rectangle up to a top height, seen from one point at eye height: the
@@ -472,13 +476,12 @@ impl RectView {
     /// With the slope needed raised by the relative `margin` (plus 1e-12)
     /// when `margin` is positive.
     fn with_margin(v: DVec2, eye: f64, rect: &Rect, top: f64, margin: f64) -> Self {
-        let r_min = v.clamp(rect.min, rect.max).distance(v);
-        if r_min < 1e-6 {
+        let Some((r_min, (lo, hi))) = nearest_and_bins(v, rect) else {
             return RectView {
                 bins: None,
                 need: f64::INFINITY,
             };
-        }
+        };
         let need = if top >= eye {
             (top - eye) / r_min
         } else {
@@ -494,10 +497,7 @@ impl RectView {
             need
         };
         RectView {
-            bins: Some({
-                let (lo, hi) = bins_of(v, rect);
-                (lo as i32, hi as i32)
-            }),
+            bins: Some((lo as i32, hi as i32)),
             need,
         }
     }

@@ -324,8 +324,8 @@ pub struct Solver<'a> {
     /// (a bucket is queued at most once per sample).
     bucket_queued: Vec<u64>,
     /// Per edge bucket, and per node of each level of the bucket
-    /// hierarchy, its chain rectangle's sectors and view as seen from the
-    /// sample of the epoch kept with them.
+    /// hierarchy, its chain rectangle's view as seen from the sample of the
+    /// epoch kept with it.
     view_marks: [Vec<ViewMark>; NODE_LEVELS + 1],
     /// Per pyramid node, the greatest height of its objects not yet in the
     /// unit's visible set (`NEG_INFINITY` when every one is).
@@ -668,8 +668,8 @@ impl<'a> Solver<'a> {
 
     /// Whether the chains found so far hide the rectangle of `view` (at
     /// distance `r`) up to its top: first those in the horizon, then with
-    /// the queued ones nearer
-    /// than `r` entered, asked again only if they changed it. No bucket is
+    /// the queued ones nearer than `r` entered, asked again only if they
+    /// changed it. No bucket is
     /// swept. A pyramid node is tested only this way: a node only saves
     /// work (when it is not shown hidden, its children and objects are
     /// queued and each object gets its own full test), so a node never
