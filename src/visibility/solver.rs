@@ -1092,6 +1092,13 @@ impl Sweep<'_, '_> {
         {
             return;
         }
+        self.bucket_under_open_nodes(x, y);
+    }
+
+    /// [`Sweep::bucket`] for a bucket whose nodes were just found not
+    /// passed over (by [`Sweep::walk`], at this horizon state, so testing
+    /// them again would give the same answer).
+    fn bucket_under_open_nodes(&mut self, x: usize, y: usize) {
         let (index, v, eye) = (self.index, self.v, self.eye);
         let bucket = index.bucket_index(x, y);
         if self.queued[bucket] == self.sample_epoch {
@@ -1158,7 +1165,7 @@ impl Sweep<'_, '_> {
                     continue 'walk;
                 }
             }
-            self.bucket(bucket.0, bucket.1);
+            self.bucket_under_open_nodes(bucket.0, bucket.1);
             i += 1;
         }
     }
