@@ -237,14 +237,7 @@ fn run_in_pool(args: &BakeArgs, threads: usize) -> Result<i32> {
             ..Default::default()
         }
     } else {
-        crate::pvs::write_streamed(
-            &output,
-            crate::bake::bake_info(&scene),
-            scene.city.buildings.iter().map(|b| b.id.clone()).collect(),
-            crate::pvs::prints::object_prints(&scene),
-            scene.cells.triangles.clone(),
-            &mut |f| baked.part.for_each_set(f),
-        )?
+        crate::bake::write_whole_city(&scene, &baked.part, &output)?
     };
     remove_checkpoint(&output)?;
     timings.push(StageTime {

@@ -4,6 +4,7 @@
 //! suite links a few binaries instead of one per file.
 
 mod bake_cli;
+mod bench_cli;
 #[path = "../common/mod.rs"]
 mod common;
 mod flags_refused;

@@ -1,0 +1,148 @@
+//! `citypvs bench`: its figures are those of `citypvs bake` on the same
+//! generated city, `--save` keeps them and `--baseline` sets a later run
+//! beside them; a file that is not a saved run is refused.
+
+use crate::common::{citypvs, citypvs_json, stderr};
+
+/// The JSON lines `citypvs ARGS` printed, after requiring success.
+fn json_lines(dir: &std::path::Path, args: &[&str]) -> Vec<serde_json::Value> {
+    let out = citypvs(dir, args);
+    assert!(out.status.success(), "{}", stderr(&out));
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("one JSON object per line"))
+        .collect()
+}
+
+#[test]
+fn bench_measures_the_bake_command_and_compares_with_a_saved_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let saved = dir.path().join("run.json");
+    let saved_arg = saved.display().to_string();
+    let rows = json_lines(
+        dir.path(),
+        &[
+            "bench",
+            "--buildings",
+            "60",
+            "--seed",
+            "3",
+            "--threads",
+            "2",
+            "--json",
+            "--save",
+            &saved_arg,
+        ],
+    );
+    assert_eq!(rows.len(), 1, "{rows:?}");
+    let row = &rows[0];
+
+    // The same city through `generate` and `bake`: the same cells, sets and
+    // file size, so the bench times what the command does.
+    let city = dir.path().join("c.geojson");
+    let city_arg = city.display().to_string();
+    let out = citypvs(
+        dir.path(),
+        &[
+            "generate",
+            "--buildings",
+            "60",
+            "--seed",
+            "3",
+            "-o",
+            &city_arg,
+        ],
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let bake = citypvs_json(dir.path(), &["bake", &city_arg, "-o", "c.pvs", "-q"]);
+    for key in [
+        "cells",
+        "samples",
+        "mean_visible",
+        "max_visible",
+        "file_bytes",
+    ] {
+        assert_eq!(
+            row[key], bake[key],
+            "{key}: bench {row} against bake {bake}"
+        );
+    }
+    assert!(row["cells"].as_u64().unwrap() > 0, "{row}");
+    assert!(row["cells_per_second"].as_f64().unwrap() > 0.0, "{row}");
+    // No checkpoint or output is left behind in the working folder.
+    let left: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .filter(|n| n.contains("checkpoint") || n.starts_with("bench-"))
+        .collect();
+    assert!(left.is_empty(), "{left:?}");
+
+    // The saved run holds the row; a second run set beside it.
+    let text = std::fs::read_to_string(&saved).unwrap();
+    let run: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(run["rows"][0]["cells"], row["cells"], "{run}");
+    let lines = json_lines(
+        dir.path(),
+        &[
+            "bench",
+            "--buildings",
+            "60",
+            "--seed",
+            "3",
+            "--threads",
+            "1",
+            "--json",
+            "--baseline",
+            &saved_arg,
+        ],
+    );
+    assert_eq!(lines.len(), 2, "{lines:?}");
+    let compared = &lines[1];
+    assert_eq!(compared["buildings"], 60, "{compared}");
+    let ratio = &compared["ratio_now_to_baseline"];
+    // The sets do not depend on the thread count: the same cells and PVS.
+    assert_eq!(ratio["cells"].as_f64(), Some(1.0), "{compared}");
+    assert_eq!(ratio["mean_visible"].as_f64(), Some(1.0), "{compared}");
+    assert!(ratio["bake_seconds"].as_f64().unwrap() > 0.0, "{compared}");
+
+    // The table form names the figures and their ratio.
+    let out = citypvs(
+        dir.path(),
+        &[
+            "bench",
+            "--buildings",
+            "60",
+            "--seed",
+            "3",
+            "--baseline",
+            &saved_arg,
+        ],
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let table = String::from_utf8_lossy(&out.stdout);
+    assert!(table.contains("60 buildings vs baseline"), "{table}");
+    assert!(table.contains("cells_per_second"), "{table}");
+    assert!(table.contains("now/base"), "{table}");
+}
+
+#[test]
+fn bench_refuses_a_baseline_that_is_not_a_saved_run() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("notes.json"), "{\"rows\": 3}").unwrap();
+    let out = citypvs(
+        dir.path(),
+        &["bench", "--buildings", "20", "--baseline", "notes.json"],
+    );
+    assert_eq!(out.status.code(), Some(2));
+    let e = stderr(&out);
+    assert!(
+        e.contains("notes.json") && e.contains("citypvs bench --save"),
+        "{e}"
+    );
+    // Refused before any city is generated or baked.
+    assert!(
+        out.stdout.is_empty(),
+        "{}",
+        String::from_utf8_lossy(&out.stdout)
+    );
+}
