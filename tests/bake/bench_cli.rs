@@ -14,6 +14,13 @@ fn json_lines(dir: &std::path::Path, args: &[&str]) -> Vec<serde_json::Value> {
         .collect()
 }
 
+/// `bench` of the 60-building generated city of seed 3, then `extra`.
+fn bench_small<'a>(extra: &[&'a str]) -> Vec<&'a str> {
+    let mut args = vec!["bench", "--buildings", "60", "--seed", "3"];
+    args.extend_from_slice(extra);
+    args
+}
+
 #[test]
 fn bench_measures_the_bake_command_and_compares_with_a_saved_run() {
     let dir = tempfile::tempdir().unwrap();
@@ -21,18 +28,7 @@ fn bench_measures_the_bake_command_and_compares_with_a_saved_run() {
     let saved_arg = saved.display().to_string();
     let rows = json_lines(
         dir.path(),
-        &[
-            "bench",
-            "--buildings",
-            "60",
-            "--seed",
-            "3",
-            "--threads",
-            "2",
-            "--json",
-            "--save",
-            &saved_arg,
-        ],
+        &bench_small(&["--threads", "2", "--json", "--save", &saved_arg]),
     );
     assert_eq!(rows.len(), 1, "{rows:?}");
     let row = &rows[0];
@@ -83,18 +79,7 @@ fn bench_measures_the_bake_command_and_compares_with_a_saved_run() {
     assert_eq!(run["rows"][0]["cells"], row["cells"], "{run}");
     let lines = json_lines(
         dir.path(),
-        &[
-            "bench",
-            "--buildings",
-            "60",
-            "--seed",
-            "3",
-            "--threads",
-            "1",
-            "--json",
-            "--baseline",
-            &saved_arg,
-        ],
+        &bench_small(&["--threads", "1", "--json", "--baseline", &saved_arg]),
     );
     assert_eq!(lines.len(), 2, "{lines:?}");
     let compared = &lines[1];
@@ -106,18 +91,7 @@ fn bench_measures_the_bake_command_and_compares_with_a_saved_run() {
     assert!(ratio["bake_seconds"].as_f64().unwrap() > 0.0, "{compared}");
 
     // The table form names the figures and their ratio.
-    let out = citypvs(
-        dir.path(),
-        &[
-            "bench",
-            "--buildings",
-            "60",
-            "--seed",
-            "3",
-            "--baseline",
-            &saved_arg,
-        ],
-    );
+    let out = citypvs(dir.path(), &bench_small(&["--baseline", &saved_arg]));
     assert!(out.status.success(), "{}", stderr(&out));
     let table = String::from_utf8_lossy(&out.stdout);
     assert!(table.contains("60 buildings vs baseline"), "{table}");
