@@ -70,7 +70,15 @@ pub struct CullMapImage {
 /// list (4 bytes per member) or a bitset (one bit per object). So a set
 /// held between solving and handing on never takes more than
 /// min(4 |set|, objects / 8) bytes, even when a cell sees everything.
-enum StoredSet {
+struct StoredSet {
+    members: Members,
+    /// For a corner, the chains its solver carried on after it: the first
+    /// sample of an edge starting there (2 eps away) starts from them.
+    carried: Vec<u64>,
+}
+
+/// The members of a [`StoredSet`].
+enum Members {
     Sparse(Vec<u32>),
     Dense(ObjectSet),
 }
@@ -78,26 +86,30 @@ enum StoredSet {
 impl StoredSet {
     fn of(set: &ObjectSet) -> StoredSet {
         let count = set.count();
-        if count * 4 * 8 > set.capacity() {
-            StoredSet::Dense(set.clone())
+        let members = if count * 4 * 8 > set.capacity() {
+            Members::Dense(set.clone())
         } else {
-            StoredSet::Sparse(set.to_vec())
+            Members::Sparse(set.to_vec())
+        };
+        StoredSet {
+            members,
+            carried: Vec::new(),
         }
     }
 
     /// Add every member to `set`.
     fn add_to(&self, set: &mut ObjectSet) {
-        match self {
-            StoredSet::Sparse(v) => v.iter().for_each(|&o| set.insert(o as usize)),
-            StoredSet::Dense(d) => set.union_with(d),
+        match &self.members {
+            Members::Sparse(v) => v.iter().for_each(|&o| set.insert(o as usize)),
+            Members::Dense(d) => set.union_with(d),
         }
     }
 
     /// Members in ascending order.
     fn into_vec(self) -> Vec<u32> {
-        match self {
-            StoredSet::Sparse(v) => v,
-            StoredSet::Dense(d) => d.to_vec(),
+        match self.members {
+            Members::Sparse(v) => v,
+            Members::Dense(d) => d.to_vec(),
         }
     }
 }
@@ -204,8 +216,19 @@ impl<'a> VisibilityEngine<'a> {
             set.add_to(scratch);
         }
         let points = self.unit_points(unit);
+        // An edge's samples start next to its first end: the chains that
+        // held that corner's horizon hide most of what they hid there. They
+        // change only how soon "hidden" is found (docs/DESIGN.md, "Chains
+        // carried along a run").
+        if let Some(first_end) = seed.first() {
+            solver.set_carried(&first_end.carried);
+        }
         solver.solve_run(&points, scratch);
-        StoredSet::of(scratch)
+        let mut stored = StoredSet::of(scratch);
+        if seed.is_empty() {
+            stored.carried = solver.carried().to_vec();
+        }
+        stored
     }
 
     /// The sample points (x, y, eye height) of one cell's top edges: its

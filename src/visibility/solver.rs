@@ -405,6 +405,21 @@ impl<'a> Solver<'a> {
         self.solve_run(&[v], visible);
     }
 
+    /// The chains this solver carries to the next sample it solves (the
+    /// holders of the last sample's horizon and of what hid its objects;
+    /// "Chains carried along a run").
+    pub fn carried(&self) -> &[u64] {
+        &self.carried
+    }
+
+    /// Carry `tags` (a list [`Solver::carried`] gave, maybe of another
+    /// solver of the same scene) to the next sample instead. Carried chains
+    /// change only how soon "hidden" is found, never a verdict.
+    pub fn set_carried(&mut self, tags: &[u64]) {
+        self.carried.clear();
+        self.carried.extend_from_slice(tags);
+    }
+
     /// Add to `visible` every object not hidden from some point of `points`
     /// (the samples of one unit: in order along a straight segment, or a
     /// single point). Each sample decides only the objects not yet in

@@ -2,8 +2,9 @@
 //! `Solver::solve_run` gives the same set whatever the solver solved
 //! before, it keeps everything its first sample sees, a run started from a
 //! set adds to it just what it finds from nothing (so an edge seeded with
-//! its corners' sets leaves every cell's PVS as it was), and a bake gives
-//! the same sets for any thread count.
+//! its corners' sets leaves every cell's PVS as it was), an edge started
+//! from the chains a corner carried on gives the set it gives from none,
+//! and a bake gives the same sets for any thread count.
 
 use citypvs::visibility::bitset::ObjectSet;
 use citypvs::visibility::index::SceneIndex;
@@ -72,6 +73,43 @@ fn a_run_does_not_depend_on_what_the_solver_solved_before() {
         fresh.iter().any(|s| s.count() > 0),
         "the runs see something"
     );
+}
+
+#[test]
+fn an_edge_started_from_a_corners_carried_chains_gives_the_same_set() {
+    let scene = crate::common::generated_scene(120, 4);
+    let params = &scene.settings;
+    let index = SceneIndex::build(&scene.city.buildings, &scene.occluders, params.pixel);
+    let topo = MeshTopology::of(&scene.cells.triangles);
+    let n = scene.city.buildings.len();
+    let spacing = scene.settings.sample_spacing();
+    let solve = |carried: Option<&[u64]>, points: &[DVec2]| {
+        let mut solver = Solver::new(&index, params.eye_height, params.near_field);
+        if let Some(tags) = carried {
+            solver.set_carried(tags);
+        }
+        let mut set = ObjectSet::new(n);
+        solver.solve_run(points, &mut set);
+        (set, solver.carried().to_vec())
+    };
+    let mut checked = 0;
+    for e in (0..topo.edges.len()).step_by(7) {
+        let points = topo.edge_interior_samples(e, spacing);
+        if points.is_empty() {
+            continue;
+        }
+        let [a, b] = topo.edges[e];
+        let (_, from_a) = solve(None, &[topo.vertices[a as usize]]);
+        let (_, from_b) = solve(None, &[topo.vertices[b as usize]]);
+        assert!(!from_a.is_empty(), "edge {e}: the corner carries chains");
+        let (fresh, _) = solve(None, &points);
+        // From its first corner (as the engine does), and from the other
+        // end, whose chains suit the first sample far less.
+        assert_eq!(solve(Some(&from_a), &points).0, fresh, "edge {e}");
+        assert_eq!(solve(Some(&from_b), &points).0, fresh, "edge {e}");
+        checked += 1;
+    }
+    assert!(checked > 20, "{checked}");
 }
 
 #[test]
