@@ -12,12 +12,25 @@ use citypvs::visibility::samples::MeshTopology;
 use citypvs::visibility::solver::Solver;
 use glam::DVec2;
 
+/// A generated city's scene with its index and mesh topology.
+fn indexed_city(
+    buildings: usize,
+    seed: u64,
+) -> (citypvs::prepare::Scene, SceneIndex, MeshTopology) {
+    let scene = crate::common::generated_scene(buildings, seed);
+    let index = SceneIndex::build(
+        &scene.city.buildings,
+        &scene.occluders,
+        scene.settings.pixel,
+    );
+    let topo = MeshTopology::of(&scene.cells.triangles);
+    (scene, index, topo)
+}
+
 #[test]
 fn a_run_does_not_depend_on_what_the_solver_solved_before() {
-    let scene = crate::common::generated_scene(120, 4);
+    let (scene, index, topo) = indexed_city(120, 4);
     let params = &scene.settings;
-    let index = SceneIndex::build(&scene.city.buildings, &scene.occluders, params.pixel);
-    let topo = MeshTopology::of(&scene.cells.triangles);
     let n = scene.city.buildings.len();
     let spacing = scene.settings.sample_spacing();
     // Every 9th edge and every 9th vertex, so the test stays short but
@@ -77,10 +90,8 @@ fn a_run_does_not_depend_on_what_the_solver_solved_before() {
 
 #[test]
 fn an_edge_started_from_a_corners_carried_chains_gives_the_same_set() {
-    let scene = crate::common::generated_scene(120, 4);
+    let (scene, index, topo) = indexed_city(120, 4);
     let params = &scene.settings;
-    let index = SceneIndex::build(&scene.city.buildings, &scene.occluders, params.pixel);
-    let topo = MeshTopology::of(&scene.cells.triangles);
     let n = scene.city.buildings.len();
     let spacing = scene.settings.sample_spacing();
     let solve = |carried: Option<&[u64]>, points: &[DVec2]| {
@@ -116,10 +127,8 @@ fn an_edge_started_from_a_corners_carried_chains_gives_the_same_set() {
 fn a_run_keeps_everything_its_first_sample_sees() {
     // The first sample of a run starts from the same empty set as the
     // sample alone, so it gives exactly the same verdicts.
-    let scene = crate::common::generated_scene(80, 9);
+    let (scene, index, topo) = indexed_city(80, 9);
     let params = &scene.settings;
-    let index = SceneIndex::build(&scene.city.buildings, &scene.occluders, params.pixel);
-    let topo = MeshTopology::of(&scene.cells.triangles);
     let n = scene.city.buildings.len();
     let mut solver = Solver::new(&index, params.eye_height, params.near_field);
     for e in (0..topo.edges.len()).step_by(11) {
@@ -162,10 +171,8 @@ fn bake_sets_do_not_depend_on_the_thread_count() {
 
 #[test]
 fn a_run_started_from_a_set_adds_what_it_finds_from_nothing() {
-    let scene = crate::common::generated_scene(120, 6);
+    let (scene, index, topo) = indexed_city(120, 6);
     let params = &scene.settings;
-    let index = SceneIndex::build(&scene.city.buildings, &scene.occluders, params.pixel);
-    let topo = MeshTopology::of(&scene.cells.triangles);
     let n = scene.city.buildings.len();
     let mut solver = Solver::new(&index, params.eye_height, params.near_field);
     let solve = |solver: &mut Solver, points: &[DVec2], seed: &ObjectSet| {
@@ -210,10 +217,8 @@ fn cells_are_the_union_of_their_units_solved_from_nothing() {
     // What the bake computes (edges seeded with their corners' sets, in
     // chunks) and one cell at a time, against the definition: the union of
     // the six units' sets, each solved from an empty set.
-    let scene = crate::common::generated_scene(100, 8);
+    let (scene, index, topo) = indexed_city(100, 8);
     let params = &scene.settings;
-    let index = SceneIndex::build(&scene.city.buildings, &scene.occluders, params.pixel);
-    let topo = MeshTopology::of(&scene.cells.triangles);
     let n = scene.city.buildings.len();
     let engine = citypvs::visibility::VisibilityEngine::new(&scene).unwrap();
     let all = engine.solve_all(&|_| {}).unwrap();
