@@ -200,7 +200,8 @@ impl<'a> VisibilityEngine<'a> {
     }
 
     /// The set of `unit`, starting from the sets `seed` (for an edge: its
-    /// two corners' sets). Its samples then decide only the objects no
+    /// two corners' sets, in the order of [`VisibilityEngine::edge_ends`],
+    /// the end its samples start next to first). Its samples then decide only the objects no
     /// corner saw, and since a sample's verdict on an object does not
     /// depend on what is already in the set, the union with the corners'
     /// sets, and so every cell's PVS, is the same as without the seed.
@@ -216,16 +217,17 @@ impl<'a> VisibilityEngine<'a> {
             set.add_to(scratch);
         }
         let points = self.unit_points(unit);
+        let is_corner = self.edge_ends(unit).is_none();
         // An edge's samples start next to its first end: the chains that
         // held that corner's horizon hide most of what they hid there. They
         // change only how soon "hidden" is found (docs/DESIGN.md, "Chains
         // carried along a run").
-        if let Some(first_end) = seed.first() {
+        if !is_corner && let Some(first_end) = seed.first() {
             solver.set_carried(&first_end.carried);
         }
         solver.solve_run(&points, scratch);
         let mut stored = StoredSet::of(scratch);
-        if seed.is_empty() {
+        if is_corner {
             stored.carried = solver.carried().to_vec();
         }
         stored
