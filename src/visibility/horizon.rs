@@ -349,15 +349,17 @@ impl Horizon {
     }
 
     /// Append to `out` the tag of the chain holding each bin that has a
-    /// slope (the last chain to raise it), in bin order, repeats and all.
+    /// slope (the last chain to raise it), in bin order; a tag holding a
+    /// run of bins is appended once for the run (a chain holds bins next
+    /// to each other), other repeats are left.
     pub fn holders(&self, out: &mut Vec<u64>) {
-        out.extend(
-            self.slopes
-                .iter()
-                .zip(&self.holders)
-                .filter(|(s, _)| s.is_finite())
-                .map(|(_, &tag)| tag),
-        );
+        let mut last = None;
+        for (s, &tag) in self.slopes.iter().zip(&self.holders) {
+            if s.is_finite() && last != Some(tag) {
+                out.push(tag);
+                last = Some(tag);
+            }
+        }
     }
 
     /// Append to `out` the tag of the chain holding each bin of `bins`
@@ -410,6 +412,60 @@ impl Horizon {
             let (from, to) = (lo.max(a + k), hi.min(b + k));
             from > to || self.all_at_least(from, to, need)
         })
+    }
+
+    /// The sectors holding a bin that [`Horizon::hides_view`] reads for
+    /// `view` and finds below the slope it needs: empty exactly when it
+    /// says hidden, every sector when the view has no bins. Only chains
+    /// whose arcs meet those bins can change its answer (docs/DESIGN.md,
+    /// "Sweeping only where the object still shows").
+    pub fn failing_sectors(&self, view: &RectView) -> Sectors {
+        let Some((lo, hi)) = view.bins() else {
+            return ALL_SECTORS;
+        };
+        let need = view.need;
+        let n = BINS as i64;
+        let mut failing: Sectors = 0;
+        match self.interest {
+            Some((a, b)) if b - a + 1 < n => {
+                for k in [-n, 0, n] {
+                    let (from, to) = (lo.max(a + k), hi.min(b + k));
+                    if from <= to {
+                        failing |= self.failing_in(from, to, need);
+                    }
+                }
+            }
+            _ => failing = self.failing_in(lo, hi, need),
+        }
+        failing
+    }
+
+    /// The sectors of the bins of `lo..=hi` (unwrapped) whose slope is
+    /// below `need` (or NaN): whole groups at least `need` are passed on
+    /// their minimum, as in [`Horizon::all_at_least`].
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
+    fn failing_in(&self, lo: i64, hi: i64, need: f64) -> Sectors {
+        let mut failing: Sectors = 0;
+        let mut b = lo;
+        while b <= hi {
+            let w = wrap(b);
+            if w.is_multiple_of(GROUP)
+                && hi - b >= GROUP as i64 - 1
+                && self.group_min[w / GROUP] >= need
+            {
+                b += GROUP as i64;
+                continue;
+            }
+            if !(self.slopes[w] >= need) {
+                let sector = w / SECTOR_BINS;
+                failing |= 1 << sector;
+                // The rest of this sector's bins add nothing.
+                b += (SECTOR_BINS - w % SECTOR_BINS) as i64;
+                continue;
+            }
+            b += 1;
+        }
+        failing
     }
 
     /// Whether every bin of `lo..=hi` (unwrapped) has a slope of at least
@@ -742,6 +798,52 @@ mod tests {
         assert!(matches!(covering_bins(v, four.iter()), Cover::Bins(..)));
         assert_eq!(covering_bins(v, [].iter()), Cover::Nothing);
         assert_eq!(covering_bins(v, [at(0.5, 0.0)].iter()), Cover::Everything);
+    }
+
+    proptest::proptest! {
+        /// The failing sectors are empty exactly when the rectangle is
+        /// hidden, and hold the sector of every bin the test reads and
+        /// finds too low, with or without bins of interest.
+        #[test]
+        fn the_failing_sectors_hold_every_bin_below_the_slope_needed(
+            walls in proptest::collection::vec(
+                (-120.0f64..120.0, -120.0f64..120.0, -60.0f64..60.0, -60.0f64..60.0, 3.0f64..30.0),
+                0..8,
+            ),
+            x in -150.0f64..150.0, y in -150.0f64..150.0,
+            w in 0.5f64..60.0, h in 0.5f64..60.0, top in 0.0f64..40.0,
+            interest in proptest::option::of((0i64..2048, 0i64..600)),
+        ) {
+            let v = DVec2::ZERO;
+            let mut horizon = Horizon::default();
+            if let Some((lo, width)) = interest {
+                horizon.restrict_to_bins((lo, lo + width));
+            }
+            for (i, &(ax, ay, dx, dy, height)) in walls.iter().enumerate() {
+                let a = DVec2::new(ax, ay);
+                let points = [a, a + DVec2::new(dx, dy) * 0.5, a + DVec2::new(dx, dy)];
+                horizon.add_chain(v, 2.0, height, i as u64, &points);
+            }
+            let rect = Rect { min: DVec2::new(x, y), max: DVec2::new(x + w, y + h) };
+            let view = RectView::new(v, 2.0, &rect, top);
+            let failing = horizon.failing_sectors(&view);
+            proptest::prop_assert_eq!(failing == 0, horizon.hides_view(&view));
+            let Some((lo, hi)) = view.bins() else {
+                proptest::prop_assert_eq!(failing, ALL_SECTORS);
+                return Ok(());
+            };
+            for b in lo..=hi {
+                let read = match horizon.interest {
+                    Some((a, c)) => [-2048i64, 0, 2048].iter().any(|&k| a + k <= b && b <= c + k),
+                    None => true,
+                };
+                let w = wrap(b);
+                if read && !(horizon.slopes[w] >= view.need) {
+                    let sector = (1 as Sectors) << (w / SECTOR_BINS);
+                    proptest::prop_assert!(failing & sector != 0, "bin {b}");
+                }
+            }
+        }
     }
 
     #[test]

@@ -668,14 +668,23 @@ impl<'a> Solver<'a> {
         // directions decide it: the sweep goes out to r in the item's
         // sectors only (in every direction with the skips off, for tests
         // to compare with).
-        let sectors = if self.horizon.skip_hidden {
-            view.sectors()
+        // Within those, only the sectors where the horizon is still below
+        // the item need it to grow; they shrink as chains enter
+        // (docs/DESIGN.md, "Sweeping only where the object still shows").
+        let skip = self.horizon.skip_hidden;
+        let mut sectors = if skip {
+            self.horizon.failing_sectors(view)
         } else {
             ALL_SECTORS
         };
         while self.sweep_one_more_ring(v, r, sectors) {
-            if self.enter_chains_nearer(v, r) && self.horizon.hides_view(view) {
-                return true;
+            if self.enter_chains_nearer(v, r) {
+                if self.horizon.hides_view(view) {
+                    return true;
+                }
+                if skip {
+                    sectors = self.horizon.failing_sectors(view);
+                }
             }
         }
         false
