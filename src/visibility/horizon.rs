@@ -441,29 +441,18 @@ impl Horizon {
     }
 
     /// The sectors of the bins of `lo..=hi` (unwrapped) whose slope is
-    /// below `need` (or NaN): whole groups at least `need` are passed on
-    /// their minimum, as in [`Horizon::all_at_least`].
-    #[allow(clippy::neg_cmp_op_on_partial_ord)]
+    /// below `need` (or NaN): each sector's stretch of the range is asked
+    /// of [`Horizon::all_at_least`].
     fn failing_in(&self, lo: i64, hi: i64, need: f64) -> Sectors {
+        let width = SECTOR_BINS as i64;
         let mut failing: Sectors = 0;
-        let mut b = lo;
-        while b <= hi {
-            let w = wrap(b);
-            if w.is_multiple_of(GROUP)
-                && hi - b >= GROUP as i64 - 1
-                && self.group_min[w / GROUP] >= need
-            {
-                b += GROUP as i64;
-                continue;
+        let mut from = lo;
+        while from <= hi {
+            let to = ((from.div_euclid(width) + 1) * width - 1).min(hi);
+            if !self.all_at_least(from, to, need) {
+                failing |= 1 << (wrap(from) / SECTOR_BINS);
             }
-            if !(self.slopes[w] >= need) {
-                let sector = w / SECTOR_BINS;
-                failing |= 1 << sector;
-                // The rest of this sector's bins add nothing.
-                b += (SECTOR_BINS - w % SECTOR_BINS) as i64;
-                continue;
-            }
-            b += 1;
+            from = to + 1;
         }
         failing
     }
