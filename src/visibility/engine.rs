@@ -201,10 +201,11 @@ impl<'a> VisibilityEngine<'a> {
 
     /// The set of `unit`, starting from the sets `seed` (for an edge: its
     /// two corners' sets, in the order of [`VisibilityEngine::edge_ends`],
-    /// the end its samples start next to first). Its samples then decide only the objects no
-    /// corner saw, and since a sample's verdict on an object does not
-    /// depend on what is already in the set, the union with the corners'
-    /// sets, and so every cell's PVS, is the same as without the seed.
+    /// the end its samples start next to first). Its samples then decide
+    /// only the objects no corner saw, and since a sample's verdict on an
+    /// object does not depend on what is already in the set, the union with
+    /// the corners' sets, and so every cell's PVS, is the same as without
+    /// the seed.
     fn solve_unit(
         &self,
         solver: &mut Solver,
