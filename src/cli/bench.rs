@@ -1,6 +1,8 @@
 //! `citypvs bench`: generate cities of several sizes, prepare and bake each,
 //! and print the figures (cells, seconds, cells per second, seconds per cell,
-//! PVS sizes, bytes per cell). Speed is measured here, never in tests.
+//! visible cell-building pairs per second, PVS sizes, bytes per cell), then
+//! how each larger city's speed compares with the smallest one's. Speed is
+//! measured here, never in tests.
 
 use std::time::Instant;
 
@@ -49,6 +51,12 @@ struct Row {
     bake_seconds: f64,
     cells_per_second: f64,
     micros_per_cell: f64,
+    /// Visible (cell, building) pairs written per second of the bake: the
+    /// work of a sample grows with what it sees, so this figure stays
+    /// nearly flat as a city grows when cells per second falls because
+    /// its cells see more. Absent (0) in runs saved by older versions.
+    #[serde(default)]
+    visible_pairs_per_second: f64,
     mean_visible: f64,
     max_visible: usize,
     culled_fraction: f64,
@@ -80,9 +88,10 @@ fn read_baseline(path: &std::path::Path) -> Result<Saved> {
 }
 
 /// The figures compared with a baseline, and whether lower is better.
-const COMPARED: [(&str, bool); 6] = [
+const COMPARED: [(&str, bool); 7] = [
     ("bake_seconds", true),
     ("cells_per_second", false),
+    ("visible_pairs_per_second", false),
     ("mean_visible", true),
     ("bytes_per_cell", true),
     ("peak_memory_bytes_so_far", true),
@@ -93,6 +102,7 @@ fn figure(row: &Row, name: &str) -> f64 {
     match name {
         "bake_seconds" => row.bake_seconds,
         "cells_per_second" => row.cells_per_second,
+        "visible_pairs_per_second" => row.visible_pairs_per_second,
         "mean_visible" => row.mean_visible,
         "bytes_per_cell" => row.bytes_per_cell,
         "peak_memory_bytes_so_far" => row.peak_memory_bytes_so_far.unwrap_or(0) as f64 / 1048576.0,
@@ -136,6 +146,34 @@ fn print_comparison(base: &Saved, row: &Row) {
     }
 }
 
+/// How each larger city's speed compares with the smallest city's of this
+/// run: the ratio of cells per second, and of visible pairs per second.
+fn print_scaling(rows: &[Row], json: bool) {
+    let Some(small) = rows.iter().min_by_key(|r| r.buildings) else {
+        return;
+    };
+    for row in rows.iter().filter(|r| r.buildings > small.buildings) {
+        let cells = row.cells_per_second / small.cells_per_second;
+        let pairs = row.visible_pairs_per_second / small.visible_pairs_per_second;
+        if json {
+            println!(
+                "{}",
+                serde_json::json!({
+                    "buildings": row.buildings,
+                    "against_buildings": small.buildings,
+                    "cells_per_second_ratio": cells,
+                    "visible_pairs_per_second_ratio": pairs,
+                })
+            );
+        } else {
+            println!(
+                "  {} against {} buildings: cells/s {:.2}x, visible pairs/s {:.2}x (mean PVS {:.1} against {:.1})",
+                row.buildings, small.buildings, cells, pairs, row.mean_visible, small.mean_visible
+            );
+        }
+    }
+}
+
 pub fn run(args: &BenchArgs) -> Result<i32> {
     let max = super::generate::MAX_BUILDINGS;
     if let Some(&n) = args.buildings.iter().find(|&&n| n == 0 || n > max) {
@@ -151,13 +189,14 @@ pub fn run(args: &BenchArgs) -> Result<i32> {
     let mut rows = Vec::new();
     if !args.json {
         println!(
-            "{:>9} {:>8} {:>9} {:>9} {:>9} {:>10} {:>9} {:>8} {:>7} {:>9}",
+            "{:>9} {:>8} {:>9} {:>9} {:>9} {:>10} {:>9} {:>9} {:>8} {:>7} {:>9}",
             "buildings",
             "cells",
             "prepare s",
             "bake s",
             "cells/s",
             "us/cell",
+            "pairs/s",
             "mean PVS",
             "culled",
             "B/cell",
@@ -212,6 +251,7 @@ pub fn run(args: &BenchArgs) -> Result<i32> {
             bake_seconds,
             cells_per_second: stats.cells as f64 / bake_seconds,
             micros_per_cell: 1e6 * bake_seconds / cells,
+            visible_pairs_per_second: stats.mean_visible * stats.cells as f64 / bake_seconds,
             mean_visible: stats.mean_visible,
             max_visible: stats.max_visible,
             culled_fraction: stats.culled_fraction,
@@ -225,13 +265,14 @@ pub fn run(args: &BenchArgs) -> Result<i32> {
             println!("{}", serde_json::to_string(&row).expect("row serialises"));
         } else {
             println!(
-                "{:>9} {:>8} {:>9.2} {:>9.2} {:>9.0} {:>10.0} {:>9.1} {:>7.1}% {:>7.1} {:>9.0}",
+                "{:>9} {:>8} {:>9.2} {:>9.2} {:>9.0} {:>10.0} {:>9.0} {:>9.1} {:>7.1}% {:>7.1} {:>9.0}",
                 row.buildings,
                 row.cells,
                 row.prepare_seconds,
                 row.bake_seconds,
                 row.cells_per_second,
                 row.micros_per_cell,
+                row.visible_pairs_per_second,
                 row.mean_visible,
                 100.0 * row.culled_fraction,
                 row.bytes_per_cell,
@@ -258,6 +299,7 @@ pub fn run(args: &BenchArgs) -> Result<i32> {
         }
         rows.push(row);
     }
+    print_scaling(&rows, args.json);
     if let Some(path) = &args.save {
         let saved = Saved {
             tool_version: env!("CARGO_PKG_VERSION").to_string(),

@@ -120,3 +120,42 @@ fn bench_refuses_a_baseline_that_is_not_a_saved_run() {
         String::from_utf8_lossy(&out.stdout)
     );
 }
+
+#[test]
+fn bench_sets_each_larger_city_beside_the_smallest() {
+    let dir = tempfile::tempdir().unwrap();
+    let lines = json_lines(
+        dir.path(),
+        &[
+            "bench",
+            "--buildings",
+            "60,30",
+            "--seed",
+            "3",
+            "--threads",
+            "1",
+            "--json",
+        ],
+    );
+    assert_eq!(lines.len(), 3, "{lines:?}");
+    let (big, small, scaling) = (&lines[0], &lines[1], &lines[2]);
+    for row in [big, small] {
+        let pairs = row["mean_visible"].as_f64().unwrap() * row["cells"].as_f64().unwrap()
+            / row["bake_seconds"].as_f64().unwrap();
+        let got = row["visible_pairs_per_second"].as_f64().unwrap();
+        assert!((got - pairs).abs() <= 1e-9 * pairs, "{row}");
+    }
+    assert_eq!(scaling["buildings"], 60, "{scaling}");
+    assert_eq!(scaling["against_buildings"], 30, "{scaling}");
+    let ratio = |key: &str| big[key].as_f64().unwrap() / small[key].as_f64().unwrap();
+    for (key, of) in [
+        ("cells_per_second_ratio", "cells_per_second"),
+        ("visible_pairs_per_second_ratio", "visible_pairs_per_second"),
+    ] {
+        let got = scaling[key].as_f64().unwrap();
+        assert!(
+            (got - ratio(of)).abs() <= 1e-9 * got.abs(),
+            "{key}: {scaling}"
+        );
+    }
+}
