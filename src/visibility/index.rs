@@ -12,17 +12,26 @@ use crate::model::{
     polygon_edges,
 };
 
-/// One edge of a shrunk occluder level, with the solid on its left.
+/// One edge (piece) of a shrunk occluder level, with the solid on its
+/// left, as the index keeps it: its end points are read from
+/// [`RingPoints`] ([`SceneIndex::edge_points`]), which holds every point
+/// once per ring, so they are not stored here a second time.
 #[derive(Clone, Copy, Debug)]
 pub struct OccluderEdge {
-    pub a: DVec2,
-    pub b: DVec2,
     /// Height of the level in metres.
     pub height: f64,
     /// Index of the next edge along the same ring.
     pub next: u32,
     /// Position of this piece along its ring (0 for the ring's first piece).
     pub ring_pos: u32,
+}
+
+/// An edge with its end points, while the index is built.
+#[derive(Clone, Copy, Debug)]
+struct Piece {
+    a: DVec2,
+    b: DVec2,
+    edge: OccluderEdge,
 }
 
 /// The pixel grid shared by every cull map: pixel (i, j) covers
@@ -136,17 +145,24 @@ fn grid_step(bounds: &Rect, step: f64) -> f64 {
 impl SceneIndex {
     pub fn build(buildings: &[Building], occluders: &[Occluder], pixel: f64) -> SceneIndex {
         let grid = PixelGrid { pixel };
-        let edges = collect_edges(occluders);
-        let buckets = bucket_grid(&edges);
-        let edges = in_bucket_order(edges, &buckets);
-        let ring_points = RingPoints::build(&edges);
+        let pieces = collect_edges(occluders);
+        let buckets = bucket_grid(&pieces);
+        let pieces = in_bucket_order(pieces, &buckets);
+        let ring_points = RingPoints::build(&pieces);
+        // From here the pieces' points are read from `ring_points`, where
+        // each is kept once, and the edges without them (a third of the
+        // size); the pieces are let go before the lists below are built.
+        // (A new list: `into_iter` would collect into the pieces' own
+        // allocation.)
+        let edges: Vec<OccluderEdge> = pieces.iter().map(|p| p.edge).collect();
+        drop(pieces);
         let edge_range = |i: usize| {
-            let e = &edges[i];
-            buckets.key_range(&Rect::of_points([&e.a, &e.b]))
+            let (a, b) = ring_points.edge(i as u32);
+            buckets.key_range(&Rect::of_points([&a, &b]))
         };
         let bucket_lists = CellLists::build(&buckets, edges.len(), edge_range);
         let start_range = |i: usize| {
-            let k = buckets.key(edges[i].a);
+            let k = buckets.key(ring_points.first(i as u32));
             (k, k)
         };
         let mut bucket_starts = CellLists::build(&buckets, edges.len(), start_range);
@@ -181,16 +197,14 @@ impl SceneIndex {
                 for (level, rect) in rects.iter_mut().take(3).enumerate() {
                     let stride = 1u32 << level;
                     for &e in b {
-                        let edge = &edges[e as usize];
-                        if !edge.ring_pos.is_multiple_of(stride) {
+                        if !edges[e as usize].ring_pos.is_multiple_of(stride) {
                             continue;
                         }
-                        rect.include(edge.a);
+                        rect.include(ring_points.first(e));
                         let mut cur = e;
                         for _ in 0..=stride {
-                            let c = &edges[cur as usize];
-                            rect.include(c.b);
-                            cur = c.next;
+                            rect.include(ring_points.edge(cur).1);
+                            cur = edges[cur as usize].next;
                         }
                     }
                     all = all.union(rect);
@@ -333,6 +347,18 @@ impl SceneIndex {
         self.buckets.cell_rect(b)
     }
 
+    /// The first and last point of edge `e` (the solid on its left).
+    #[inline]
+    pub fn edge_points(&self, e: u32) -> (DVec2, DVec2) {
+        self.ring_points.edge(e)
+    }
+
+    /// The first point of edge `e`.
+    #[inline]
+    pub fn edge_first_point(&self, e: u32) -> DVec2 {
+        self.ring_points.first(e)
+    }
+
     /// Call `f` with the index of every edge whose bucket overlaps `rect`
     /// (an edge may be reported more than once).
     pub fn edges_near(&self, rect: &Rect, mut f: impl FnMut(u32)) {
@@ -432,7 +458,7 @@ impl BucketNodes {
 /// over a very wide city) from the multiple of the square size at or below
 /// the lower left corner of the edges' bounding box, enough of them that
 /// the box's far sides lie inside the grid.
-fn bucket_grid(edges: &[OccluderEdge]) -> UniformGrid {
+fn bucket_grid(edges: &[Piece]) -> UniformGrid {
     let mut bounds = Rect::EMPTY;
     for e in edges {
         bounds.include(e.a);
@@ -480,28 +506,44 @@ pub struct RingPoints {
 }
 
 impl RingPoints {
-    fn build(edges: &[OccluderEdge]) -> RingPoints {
-        let mut points = Vec::new();
+    fn build(edges: &[Piece]) -> RingPoints {
+        // One point per piece and MAX_CHAIN_PIECES more per ring: counted
+        // first, so the list is allocated once at its size.
+        let rings = edges.iter().filter(|p| p.edge.ring_pos == 0).count();
+        let mut points = Vec::with_capacity(edges.len() + rings * MAX_CHAIN_PIECES);
         let mut start = vec![0u32; edges.len()];
-        for (head, edge) in edges.iter().enumerate() {
-            if edge.ring_pos != 0 {
+        for (head, piece) in edges.iter().enumerate() {
+            if piece.edge.ring_pos != 0 {
                 continue;
             }
             let mut cur = head;
             loop {
                 start[cur] = points.len() as u32;
                 points.push(edges[cur].a);
-                cur = edges[cur].next as usize;
+                cur = edges[cur].edge.next as usize;
                 if cur == head {
                     break;
                 }
             }
             for _ in 0..MAX_CHAIN_PIECES {
                 points.push(edges[cur].a);
-                cur = edges[cur].next as usize;
+                cur = edges[cur].edge.next as usize;
             }
         }
         RingPoints { points, start }
+    }
+
+    /// The first and last point of edge `e`.
+    #[inline]
+    pub fn edge(&self, e: u32) -> (DVec2, DVec2) {
+        let from = self.start[e as usize] as usize;
+        (self.points[from], self.points[from + 1])
+    }
+
+    /// The first point of edge `e`.
+    #[inline]
+    pub fn first(&self, e: u32) -> DVec2 {
+        self.points[self.start[e as usize] as usize]
     }
 
     /// The points of the chain of `pieces` pieces (at most
@@ -514,7 +556,7 @@ impl RingPoints {
     }
 }
 
-fn collect_edges(occluders: &[Occluder]) -> Vec<OccluderEdge> {
+fn collect_edges(occluders: &[Occluder]) -> Vec<Piece> {
     // Every ring of every occluder, with the occluder's height.
     let rings = || {
         occluders.iter().flat_map(|occ| {
@@ -545,19 +587,21 @@ fn collect_edges(occluders: &[Occluder]) -> Vec<OccluderEdge> {
             for q in cut_points(a, b, pieces).skip(1) {
                 let p = std::mem::replace(&mut from, q);
                 let next = edges.len() as u32 + 1;
-                edges.push(OccluderEdge {
+                edges.push(Piece {
                     a: p,
                     b: q,
-                    height,
-                    next,
-                    ring_pos,
+                    edge: OccluderEdge {
+                        height,
+                        next,
+                        ring_pos,
+                    },
                 });
                 ring_pos += 1;
             }
         }
         // Close the ring: the last piece continues with the first.
         if let Some(last) = edges.last_mut() {
-            last.next = start;
+            last.edge.next = start;
         }
     }
     edges
@@ -572,7 +616,7 @@ fn collect_edges(occluders: &[Occluder]) -> Vec<OccluderEdge> {
 /// edges in an order fixed by their coordinates.
 ///
 /// The edges are moved in place (no second copy of the list is held).
-fn in_bucket_order(mut edges: Vec<OccluderEdge>, buckets: &UniformGrid) -> Vec<OccluderEdge> {
+fn in_bucket_order(mut edges: Vec<Piece>, buckets: &UniformGrid) -> Vec<Piece> {
     let mut keyed: Vec<(u32, u32)> = (0..edges.len())
         .map(|e| (buckets.index(buckets.key(edges[e].a)) as u32, e as u32))
         .collect();
@@ -582,8 +626,8 @@ fn in_bucket_order(mut edges: Vec<OccluderEdge>, buckets: &UniformGrid) -> Vec<O
         new_id[e as usize] = n as u32;
     }
     drop(keyed);
-    for edge in &mut edges {
-        edge.next = new_id[edge.next as usize];
+    for piece in &mut edges {
+        piece.edge.next = new_id[piece.edge.next as usize];
     }
     // Follow each cycle of the permutation: every swap puts one edge (and
     // its destination) in its final place.
@@ -718,4 +762,78 @@ fn build_pyramid(objects: &[ObjectRaster]) -> (Vec<PyramidNode>, Option<u32>) {
     }
     let root = current[0];
     (nodes, root)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::Polygon;
+
+    fn ring(points: &[(f64, f64)]) -> Vec<DVec2> {
+        points.iter().map(|&(x, y)| DVec2::new(x, y)).collect()
+    }
+
+    /// Occluders with long walls (cut into pieces), a courtyard and rings
+    /// in several buckets.
+    fn occluders() -> Vec<Occluder> {
+        let block = Polygon {
+            exterior: ring(&[(0.0, 0.0), (70.0, 0.0), (70.0, 40.0), (0.0, 40.0)]),
+            holes: vec![ring(&[
+                (10.0, 10.0),
+                (10.0, 30.0),
+                (60.0, 30.0),
+                (60.0, 10.0),
+            ])],
+        };
+        let tower = Polygon {
+            exterior: ring(&[(100.3, -20.7), (105.1, -20.7), (105.1, 3.9)]),
+            holes: vec![],
+        };
+        [(block, 12.0), (tower, 40.0)]
+            .into_iter()
+            .enumerate()
+            .map(|(i, (p, height))| Occluder {
+                block: i,
+                level: 0,
+                height,
+                shape: vec![p],
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_index_reads_each_edge_s_points_from_its_ring() {
+        let occluders = occluders();
+        let index = SceneIndex::build(&[], &occluders, 1.0);
+        let pieces = collect_edges(&occluders);
+        assert_eq!(index.edges.len(), pieces.len());
+        // Every piece is read back exactly, with its height, once.
+        let key = |a: DVec2, b: DVec2, h: f64| [a.x, a.y, b.x, b.y, h].map(f64::to_bits);
+        let mut want: Vec<_> = pieces
+            .iter()
+            .map(|p| key(p.a, p.b, p.edge.height))
+            .collect();
+        let mut got: Vec<_> = (0..index.edges.len() as u32)
+            .map(|e| {
+                let (a, b) = index.edge_points(e);
+                assert_eq!(a, index.edge_first_point(e));
+                key(a, b, index.edges[e as usize].height)
+            })
+            .collect();
+        want.sort_unstable();
+        got.sort_unstable();
+        assert_eq!(got, want);
+        // An edge ends exactly where the next one along its ring starts,
+        // and a chain's slice is the edges' points in ring order.
+        for e in 0..index.edges.len() as u32 {
+            let next = index.edges[e as usize].next;
+            assert_eq!(index.edge_points(e).1, index.edge_points(next).0);
+            let chain = index.ring_points.chain(e, MAX_CHAIN_PIECES as u32);
+            let mut cur = e;
+            for w in chain.windows(2) {
+                assert_eq!((w[0], w[1]), index.edge_points(cur));
+                cur = index.edges[cur as usize].next;
+            }
+        }
+    }
 }

@@ -558,7 +558,7 @@ impl<'a> Solver<'a> {
         for &tag in &self.carried {
             let (e, c) = QueuedChain::of_tag(tag);
             let pieces = c.pieces();
-            if edge_stride(vc, index.edges[e as usize].a) + 1 == pieces {
+            if edge_stride(vc, index.edge_first_point(e)) + 1 == pieces {
                 self.chains
                     .push(e, pieces, c.bucket(), || chain_reach(index, v, e, pieces));
             }
@@ -936,17 +936,16 @@ impl<'a> Solver<'a> {
         index.edges_near(&rect, |e| {
             if edge_stamp[e as usize] != stamp {
                 edge_stamp[e as usize] = stamp;
-                let edge = &index.edges[e as usize];
-                gathered.push((distance_to_segment(v, edge.a, edge.b), e));
+                let (a, b) = index.edge_points(e);
+                gathered.push((distance_to_segment(v, a, b), e));
             }
         });
         // Ties in distance are broken by the edges' own coordinates, not by
         // their numbering, so the drawing order (and the drops) depend on the
         // edges only, not on what else the city holds.
-        let edges = &index.edges;
         let geometry = |e: u32| {
-            let g = &edges[e as usize];
-            [g.a.x, g.a.y, g.b.x, g.b.y, g.height]
+            let (a, b) = index.edge_points(e);
+            [a.x, a.y, b.x, b.y, index.edges[e as usize].height]
         };
         self.gathered.sort_by(|x, y| {
             x.0.total_cmp(&y.0).then_with(|| {
@@ -960,18 +959,18 @@ impl<'a> Solver<'a> {
             })
         });
         for &(_, e) in &self.gathered {
-            let edge = &index.edges[e as usize];
+            let (a, b) = index.edge_points(e);
+            let height = index.edges[e as usize].height;
             // The solid is on the edge's left; the eye faces the edge's outside
             // when it is on its right.
-            let eye_outside = (edge.b - edge.a).perp_dot(v - edge.a) < 0.0;
-            let silhouette = if edge.height > self.eye {
+            let eye_outside = (b - a).perp_dot(v - a) < 0.0;
+            let silhouette = if height > self.eye {
                 eye_outside
             } else {
                 !eye_outside
             };
-            if silhouette && !self.window.segment_hidden(edge.a, edge.b, edge.height) {
-                self.window
-                    .rasterise_shadow(v, self.eye, edge.a, edge.b, edge.height);
+            if silhouette && !self.window.segment_hidden(a, b, height) {
+                self.window.rasterise_shadow(v, self.eye, a, b, height);
             }
         }
     }
@@ -1005,7 +1004,7 @@ fn queue_bucket_chains(
     }
     for &e in index.bucket_starts(bucket) {
         let edge = &index.edges[e as usize];
-        let stride = edge_stride(vc, edge.a);
+        let stride = edge_stride(vc, index.edge_first_point(e));
         if !edge.ring_pos.is_multiple_of(stride) || edge.height <= eye {
             continue;
         }
