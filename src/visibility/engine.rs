@@ -38,6 +38,13 @@ use crate::settings::Settings;
 /// Cells solved together between two hand-overs to the sink.
 pub const CHUNK_CELLS: usize = 2048;
 
+/// The most cells a worker thread takes at a time within a chunk.
+const CELLS_PER_JOB: usize = 4;
+
+/// What one worker thread solves with: a solver, a scratch object set and
+/// the set of the cell being solved.
+type Worker<'e> = (Solver<'e>, ObjectSet, ObjectSet);
+
 /// The most pixels the objects' conservative footprints may cover on the
 /// global cull-map grid (their spans are found pixel by pixel).
 pub const MAX_FOOTPRINT_PIXELS: f64 = 1e8;
@@ -183,6 +190,15 @@ impl<'a> VisibilityEngine<'a> {
             self.topo
                 .edge_interior_samples(u - n, self.settings.sample_spacing())
         }
+    }
+
+    /// A solver with its two object sets (the scratch set and the cell's).
+    fn worker(&self) -> Worker<'_> {
+        (
+            self.solver(),
+            ObjectSet::new(self.objects),
+            ObjectSet::new(self.objects),
+        )
     }
 
     fn solver(&self) -> Solver<'_> {
@@ -372,6 +388,13 @@ impl<'a> VisibilityEngine<'a> {
             }
         }
         let mut held: HashMap<UnitId, std::sync::Arc<StoredSet>> = HashMap::new();
+        // One solver per worker thread for the whole range: the cells are
+        // handed out a few at a time (so both threads stay busy to the end
+        // of a chunk), and a solver is costly to build. Which solver solves
+        // a unit changes no set.
+        let workers: Vec<std::sync::Mutex<Worker<'_>>> = (0..rayon::current_num_threads())
+            .map(|_| std::sync::Mutex::new(self.worker()))
+            .collect();
         let mut start = range.start;
         while start < range.end {
             let end = (start + next_chunk(start).max(1)).min(range.end);
@@ -391,15 +414,19 @@ impl<'a> VisibilityEngine<'a> {
             let solved = std::sync::atomic::AtomicUsize::new(0);
             let sets: Vec<StoredSet> = (start..end)
                 .into_par_iter()
-                .map_init(
-                    || {
-                        (
-                            self.solver(),
-                            ObjectSet::new(self.objects),
-                            ObjectSet::new(self.objects),
-                        )
-                    },
-                    |(solver, scratch, set), cell| {
+                .with_max_len(CELLS_PER_JOB)
+                .map(|cell| {
+                    // The worker's own solver; a fresh one should a thread
+                    // ever come back here while it holds its own.
+                    let mut own = rayon::current_thread_index()
+                        .and_then(|i| workers.get(i))
+                        .and_then(|w| w.try_lock().ok());
+                    let mut spare = None;
+                    let (solver, scratch, set) = match own.as_deref_mut() {
+                        Some(w) => w,
+                        None => spare.insert(self.worker()),
+                    };
+                    {
                         set.clear();
                         // Corners first (they come first in a cell's
                         // units), so an edge finds its ends' sets solved.
@@ -422,8 +449,8 @@ impl<'a> VisibilityEngine<'a> {
                         }
                         progress(1);
                         StoredSet::of(set)
-                    },
-                )
+                    }
+                })
                 .collect();
             stats.units_solved += solved.into_inner();
             // Keep the sets that a later chunk still needs.
