@@ -125,22 +125,24 @@ fn print_comparison(base: &Saved, row: &Row) {
     );
     for (name, lower_is_better) in COMPARED {
         let (a, b) = (figure(old, name), figure(row, name));
-        let ratio = if a != 0.0 { b / a } else { f64::NAN };
+        let label = if name == "peak_memory_bytes_so_far" {
+            "peak_memory_mib"
+        } else {
+            name
+        };
+        if a == 0.0 {
+            // A figure the baseline's version did not record.
+            println!("  {label:<26} {:>12} {b:>12.2} {:>8}", "-", "-");
+            continue;
+        }
+        let ratio = b / a;
         let worse = if lower_is_better {
             ratio > 1.05
         } else {
             ratio < 0.95
         };
         println!(
-            "  {:<26} {:>12.2} {:>12.2} {:>7.2}x{}",
-            if name == "peak_memory_bytes_so_far" {
-                "peak_memory_mib"
-            } else {
-                name
-            },
-            a,
-            b,
-            ratio,
+            "  {label:<26} {a:>12.2} {b:>12.2} {ratio:>7.2}x{}",
             if worse { "  (worse)" } else { "" }
         );
     }
