@@ -330,9 +330,6 @@ pub struct Solver<'a> {
     /// Per pyramid node, the greatest height of its objects not yet in the
     /// unit's visible set (`NEG_INFINITY` when every one is).
     remaining: Vec<f64>,
-    /// Stamps of the edges gathered for the cull map.
-    raster_stamp: Vec<u32>,
-    raster_stamp_value: u32,
     /// Per level of the bucket hierarchy, per node, the sweep's last test.
     node_marks: [Vec<NodeMark>; NODE_LEVELS],
     /// Per bucket, the last test of its chain rectangle when its chains
@@ -376,8 +373,6 @@ impl<'a> Solver<'a> {
                 vec![ViewMark::default(); len]
             }),
             remaining: Vec::new(),
-            raster_stamp: vec![0; index.edges.len()],
-            raster_stamp_value: 0,
             node_marks: std::array::from_fn(|l| {
                 vec![NodeMark::default(); index.bucket_nodes(l).len()]
             }),
@@ -925,20 +920,15 @@ impl<'a> Solver<'a> {
     pub fn rasterise_occluders(&mut self, v: DVec2) {
         let index = self.index;
         let rect = self.window.rect();
-        self.raster_stamp_value = self.raster_stamp_value.wrapping_add(1);
-        if self.raster_stamp_value == 0 {
-            self.raster_stamp.fill(0);
-            self.raster_stamp_value = 1;
-        }
-        let stamp = self.raster_stamp_value;
         self.gathered.clear();
-        let (edge_stamp, gathered) = (&mut self.raster_stamp, &mut self.gathered);
+        let gathered = &mut self.gathered;
+        // An edge whose box overlaps several buckets is met once per
+        // bucket; its copies sort next to each other (the same distance,
+        // geometry and number) and are dropped after the sort, which keeps
+        // no per-edge mark in each solver.
         index.edges_near(&rect, |e| {
-            if edge_stamp[e as usize] != stamp {
-                edge_stamp[e as usize] = stamp;
-                let (a, b) = index.edge_points(e);
-                gathered.push((distance_to_segment(v, a, b), e));
-            }
+            let (a, b) = index.edge_points(e);
+            gathered.push((distance_to_segment(v, a, b), e));
         });
         // Ties in distance are broken by the edges' own coordinates, not by
         // their numbering, so the drawing order (and the drops) depend on the
@@ -958,6 +948,7 @@ impl<'a> Solver<'a> {
                     .then(x.1.cmp(&y.1))
             })
         });
+        self.gathered.dedup_by_key(|x| x.1);
         for &(_, e) in &self.gathered {
             let (a, b) = index.edge_points(e);
             let height = index.edges[e as usize].height;
