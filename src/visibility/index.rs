@@ -26,11 +26,11 @@ pub struct OccluderEdge {
     pub ring_pos: u32,
 }
 
-/// An edge with its end points, while the index is built.
+/// An edge with its first point, while the index is built (its last
+/// point is the first point of the next edge along its ring).
 #[derive(Clone, Copy, Debug)]
 struct Piece {
     a: DVec2,
-    b: DVec2,
     edge: OccluderEdge,
 }
 
@@ -150,12 +150,12 @@ impl SceneIndex {
         let pieces = in_bucket_order(pieces, &buckets);
         let ring_points = RingPoints::build(&pieces);
         // From here the pieces' points are read from `ring_points`, where
-        // each is kept once, and the edges without them (a third of the
-        // size); the pieces are let go before the lists below are built.
-        // (A new list: `into_iter` would collect into the pieces' own
-        // allocation.)
-        let edges: Vec<OccluderEdge> = pieces.iter().map(|p| p.edge).collect();
-        drop(pieces);
+        // each is kept once, and the edges are kept without them (half the
+        // size), before the lists below are built. (The edges are collected
+        // into the pieces' own allocation, which is then shrunk, so no
+        // second list is held.)
+        let mut edges: Vec<OccluderEdge> = pieces.into_iter().map(|p| p.edge).collect();
+        edges.shrink_to_fit();
         let edge_range = |i: usize| {
             let (a, b) = ring_points.edge(i as u32);
             buckets.key_range(&Rect::of_points([&a, &b]))
@@ -459,10 +459,11 @@ impl BucketNodes {
 /// the lower left corner of the edges' bounding box, enough of them that
 /// the box's far sides lie inside the grid.
 fn bucket_grid(edges: &[Piece]) -> UniformGrid {
+    // Every edge's last point is the first point of the next edge along its
+    // ring, so the first points alone have the bounds of all the points.
     let mut bounds = Rect::EMPTY;
     for e in edges {
         bounds.include(e.a);
-        bounds.include(e.b);
     }
     if bounds.is_empty() {
         bounds = Rect {
@@ -589,7 +590,6 @@ fn collect_edges(occluders: &[Occluder]) -> Vec<Piece> {
                 let next = edges.len() as u32 + 1;
                 edges.push(Piece {
                     a: p,
-                    b: q,
                     edge: OccluderEdge {
                         height,
                         next,
@@ -809,10 +809,23 @@ mod tests {
         assert_eq!(index.edges.len(), pieces.len());
         // Every piece is read back exactly, with its height, once.
         let key = |a: DVec2, b: DVec2, h: f64| [a.x, a.y, b.x, b.y, h].map(f64::to_bits);
-        let mut want: Vec<_> = pieces
-            .iter()
-            .map(|p| key(p.a, p.b, p.edge.height))
-            .collect();
+        // Each piece's own two points, cut from the occluders' rings here.
+        let mut want: Vec<_> = Vec::new();
+        for o in &occluders {
+            for polygon in &o.shape {
+                for ring in std::iter::once(&polygon.exterior).chain(&polygon.holes) {
+                    for i in 0..ring.len() {
+                        let (a, b) = (ring[i], ring[(i + 1) % ring.len()]);
+                        let cuts: Vec<DVec2> =
+                            cut_points(a, b, piece_count(a, b, MAX_EDGE_PIECE)).collect();
+                        for w in cuts.windows(2) {
+                            want.push(key(w[0], w[1], o.height));
+                        }
+                    }
+                }
+            }
+        }
+        assert_eq!(want.len(), pieces.len());
         let mut got: Vec<_> = (0..index.edges.len() as u32)
             .map(|e| {
                 let (a, b) = index.edge_points(e);
