@@ -398,20 +398,8 @@ impl Horizon {
         let Some((lo, hi)) = view.bins() else {
             return false;
         };
-        let need = view.need;
-        let Some((a, b)) = self.interest else {
-            return self.all_at_least(lo, hi, need);
-        };
-        // Only the bins of interest will be read: the rectangle is tested
-        // over those of its bins (none: nothing there can be seen in them).
-        let n = BINS as i64;
-        if b - a + 1 >= n {
-            return self.all_at_least(lo, hi, need);
-        }
-        [-n, 0, n].iter().all(|&k| {
-            let (from, to) = (lo.max(a + k), hi.min(b + k));
-            from > to || self.all_at_least(from, to, need)
-        })
+        self.read_ranges(lo, hi)
+            .all(|(from, to)| self.all_at_least(from, to, view.need))
     }
 
     /// The sectors holding a bin that [`Horizon::hides_view`] reads for
@@ -423,21 +411,23 @@ impl Horizon {
         let Some((lo, hi)) = view.bins() else {
             return ALL_SECTORS;
         };
-        let need = view.need;
+        self.read_ranges(lo, hi).fold(0, |failing, (from, to)| {
+            failing | self.failing_in(from, to, view.need)
+        })
+    }
+
+    /// The non-empty stretches of the unwrapped bins `lo..=hi` that a
+    /// rectangle test reads: all of them, or with bins of interest only
+    /// those (a copy of the interest a turn lower, itself, a turn higher),
+    /// since nothing can be seen in the others.
+    fn read_ranges(&self, lo: i64, hi: i64) -> impl Iterator<Item = (i64, i64)> {
         let n = BINS as i64;
-        let mut failing: Sectors = 0;
-        match self.interest {
-            Some((a, b)) if b - a + 1 < n => {
-                for k in [-n, 0, n] {
-                    let (from, to) = (lo.max(a + k), hi.min(b + k));
-                    if from <= to {
-                        failing |= self.failing_in(from, to, need);
-                    }
-                }
-            }
-            _ => failing = self.failing_in(lo, hi, need),
-        }
-        failing
+        let ranges = match self.interest {
+            Some((a, b)) if b - a + 1 < n => [-n, 0, n].map(|k| (lo.max(a + k), hi.min(b + k))),
+            // The whole range, and two empty ones.
+            _ => [(lo, hi), (1, 0), (1, 0)],
+        };
+        ranges.into_iter().filter(|(from, to)| from <= to)
     }
 
     /// The sectors of the bins of `lo..=hi` (unwrapped) whose slope is

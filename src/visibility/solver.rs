@@ -674,11 +674,15 @@ impl<'a> Solver<'a> {
         };
         while self.sweep_one_more_ring(v, r, sectors) {
             if self.enter_chains_nearer(v, r) {
-                if self.horizon.hides_view(view) {
-                    return true;
-                }
+                // The failing sectors are empty exactly when the horizon
+                // hides the item: one scan answers both questions.
                 if skip {
                     sectors = self.horizon.failing_sectors(view);
+                    if sectors == 0 {
+                        return true;
+                    }
+                } else if self.horizon.hides_view(view) {
+                    return true;
                 }
             }
         }
