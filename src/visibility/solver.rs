@@ -442,18 +442,22 @@ impl<'a> Solver<'a> {
         }
         for &p in points {
             self.solve_point(p, None, visible);
-            // The chains that hold the horizon now are queued early for the
-            // next sample this solver solves (the next of the run, or the
-            // first of the next unit, nearby in the cells' order): a few
-            // hundred chains that, seen from 2 m further on, hide nearly
-            // all they hid here. Only how soon "hidden" is found depends on
-            // them, never a verdict.
-            self.carried.clear();
-            self.carried.append(&mut self.carried_next);
-            self.horizon.holders(&mut self.carried);
-            self.carried.sort_unstable();
-            self.carried.dedup();
+            self.carry_on();
         }
+    }
+
+    /// Keep the chains that hold the horizon now, with those that hid the
+    /// objects swept for, to queue them early for the next sample this
+    /// solver solves (the next of the run, or the first of the next unit,
+    /// nearby in the cells' order): a few hundred chains that, seen from
+    /// 2 m further on, hide nearly all they hid here. Only how soon
+    /// "hidden" is found depends on them, never a verdict.
+    fn carry_on(&mut self) {
+        self.carried.clear();
+        self.carried.append(&mut self.carried_next);
+        self.horizon.holders(&mut self.carried);
+        self.carried.sort_unstable();
+        self.carried.dedup();
     }
 
     /// One point, with only the objects `undecided` still to decide (every
@@ -472,7 +476,6 @@ impl<'a> Solver<'a> {
         // what `solve_run` finds from the visible set, built from the few
         // undecided objects instead.
         let index = self.index;
-        self.carried.clear();
         self.remaining.clear();
         self.remaining
             .resize(index.pyramid.len(), f64::NEG_INFINITY);
@@ -485,6 +488,7 @@ impl<'a> Solver<'a> {
             }
         }
         self.solve_point(v, interest, visible);
+        self.carry_on();
     }
 
     /// Recompute the greatest height of the objects not yet visible under
@@ -545,19 +549,7 @@ impl<'a> Solver<'a> {
         self.queue.clear();
         let Some(root) = self.index.root else { return };
         let index = self.index;
-        // The chains carried from the previous sample of the run that are
-        // chains of this sample too (the stride this sample gives their
-        // first piece is theirs) wait, like any other, until the search
-        // passes their farthest point; the others are dropped.
-        let vc = stride_cell(v);
-        for &tag in &self.carried {
-            let (e, c) = QueuedChain::of_tag(tag);
-            let pieces = c.pieces();
-            if edge_stride(vc, index.edge_first_point(e)) + 1 == pieces {
-                self.chains
-                    .push(e, pieces, c.bucket(), || chain_reach(index, v, e, pieces));
-            }
-        }
+        self.queue_carried(v);
         self.queue.push(Reverse((
             key(rect_distance(v, &index.pyramid[root as usize].rect)),
             Item::Node(root),
@@ -600,6 +592,23 @@ impl<'a> Solver<'a> {
                         self.refresh_remaining(index.object_leaf[o as usize], visible);
                     }
                 }
+            }
+        }
+    }
+
+    /// Queue the chains carried from the previous sample that are chains
+    /// of the sample at `v` too (the stride `v` gives their first piece is
+    /// theirs); they wait, like any other, until the search passes their
+    /// farthest point. The others are dropped.
+    fn queue_carried(&mut self, v: DVec2) {
+        let index = self.index;
+        let vc = stride_cell(v);
+        for &tag in &self.carried {
+            let (e, c) = QueuedChain::of_tag(tag);
+            let pieces = c.pieces();
+            if edge_stride(vc, index.edge_first_point(e)) + 1 == pieces {
+                self.chains
+                    .push(e, pieces, c.bucket(), || chain_reach(index, v, e, pieces));
             }
         }
     }
@@ -863,6 +872,11 @@ impl<'a> Solver<'a> {
             self.horizon.restrict_to_bins(bins);
         }
         self.chains.clear();
+        // The chains that held the previous probe's bins, when they are
+        // this sample's own chains (only how soon "hidden" is found
+        // depends on them: they are real chains nearer than the rectangle
+        // when they enter).
+        self.queue_carried(v);
         let vc = stride_cell(v);
         let max_ring = index.max_bucket_ring(v);
         let mut swept = -1;
@@ -914,6 +928,7 @@ impl<'a> Solver<'a> {
             }
         }
         self.ready = ready;
+        self.carry_on();
         self.horizon.clear();
         self.chains.clear();
         result
