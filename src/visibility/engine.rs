@@ -426,30 +426,28 @@ impl<'a> VisibilityEngine<'a> {
                         Some(w) => w,
                         None => spare.insert(self.worker()),
                     };
-                    {
-                        set.clear();
-                        // Corners first (they come first in a cell's
-                        // units), so an edge finds its ends' sets solved.
-                        for unit in self.cell_units(cell) {
-                            let unit_set = slots[&unit].get_or_init(|| {
-                                solved.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                                let ends = self.edge_ends(unit).map(|ends| {
-                                    ends.map(|e| {
-                                        slots[&e]
-                                            .get()
-                                            .expect("a cell's corners are solved before its edges")
-                                            .clone()
-                                    })
-                                });
-                                let seed: Vec<&StoredSet> =
-                                    ends.iter().flatten().map(|s| &**s).collect();
-                                std::sync::Arc::new(self.solve_unit(solver, scratch, unit, &seed))
+                    set.clear();
+                    // Corners first (they come first in a cell's
+                    // units), so an edge finds its ends' sets solved.
+                    for unit in self.cell_units(cell) {
+                        let unit_set = slots[&unit].get_or_init(|| {
+                            solved.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                            let ends = self.edge_ends(unit).map(|ends| {
+                                ends.map(|e| {
+                                    slots[&e]
+                                        .get()
+                                        .expect("a cell's corners are solved before its edges")
+                                        .clone()
+                                })
                             });
-                            unit_set.add_to(set);
-                        }
-                        progress(1);
-                        StoredSet::of(set)
+                            let seed: Vec<&StoredSet> =
+                                ends.iter().flatten().map(|s| &**s).collect();
+                            std::sync::Arc::new(self.solve_unit(solver, scratch, unit, &seed))
+                        });
+                        unit_set.add_to(set);
                     }
+                    progress(1);
+                    StoredSet::of(set)
                 })
                 .collect();
             stats.units_solved += solved.into_inner();

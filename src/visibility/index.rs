@@ -200,11 +200,9 @@ impl SceneIndex {
                         if !edges[e as usize].ring_pos.is_multiple_of(stride) {
                             continue;
                         }
-                        rect.include(ring_points.first(e));
-                        let mut cur = e;
-                        for _ in 0..=stride {
-                            rect.include(ring_points.edge(cur).1);
-                            cur = edges[cur as usize].next;
+                        // The chain of stride + 1 pieces starting here.
+                        for &p in ring_points.chain(e, stride + 1) {
+                            rect.include(p);
                         }
                     }
                     all = all.union(rect);
