@@ -194,6 +194,11 @@ pub struct BlockEncoder {
     words: usize,
     /// Bitsets of the block's cells so far, `words` each.
     rows: Vec<u64>,
+    /// The number of ranks in each of those rows.
+    row_counts: Vec<u32>,
+    /// The words of the cell being coded that hold a rank, or that differ
+    /// from its first reference (reused from cell to cell).
+    some_words: Vec<usize>,
     cells: usize,
     models: Models,
     rc: Encoder,
@@ -212,6 +217,8 @@ impl BlockEncoder {
             ref_bits: ref_bits(block_cells),
             words,
             rows: Vec::new(),
+            row_counts: Vec::new(),
+            some_words: Vec::new(),
             cells: 0,
             models: Models::new(),
             rc: Encoder::new(),
@@ -247,12 +254,20 @@ impl BlockEncoder {
             self.rows[at + r as usize / WORD] |= 1 << (r as usize % WORD);
         }
         let cur = &self.rows[at..at + w];
+        let count: u32 = cur.iter().map(|x| x.count_ones()).sum();
         // First reference: the earlier cell nearest in Hamming distance
-        // (ties: the nearest cell), if nearer than the empty set.
+        // (ties: the nearest cell), if nearer than the empty set. The
+        // distance is |row| + |cur| - 2 |row & cur|, the last read only in
+        // the words where `cur` holds a rank (sets are sparse).
+        let mut words = std::mem::take(&mut self.some_words);
+        words.clear();
+        words.extend((0..w).filter(|&i| cur[i] != 0));
         let mut a = 0usize;
         let mut best = ranks.len() as u32;
         for back in 1..=k {
-            let d = hamming(self.row(k - back), cur);
+            let row = self.row(k - back);
+            let common: u32 = words.iter().map(|&i| (row[i] & cur[i]).count_ones()).sum();
+            let d = self.row_counts[k - back] + count - 2 * common;
             if d < best {
                 (a, best) = (back, d);
             }
@@ -262,14 +277,14 @@ impl BlockEncoder {
         let mut b = 0usize;
         if a > 0 && k >= 2 {
             let ra = self.row(k - a);
+            words.clear();
+            words.extend((0..w).filter(|&i| ra[i] != cur[i]));
             let cost = |rb: &[u64]| -> u32 {
                 let mut c = 0;
-                for i in 0..w {
+                for &i in &words {
                     let miss = ra[i] ^ cur[i];
-                    if miss != 0 {
-                        let split = ra[i] ^ rb[i];
-                        c += split.count_ones() + MISS_COST * (miss & !split).count_ones();
-                    }
+                    let split = ra[i] ^ rb[i];
+                    c += split.count_ones() + MISS_COST * (miss & !split).count_ones();
                 }
                 c
             };
@@ -283,6 +298,8 @@ impl BlockEncoder {
                 }
             }
         }
+        self.some_words = words;
+        self.row_counts.push(count);
         let m = &mut self.models;
         if k >= 1 {
             let _ = self.rc.code_tree(&mut m.back_a, self.ref_bits, a as u32);
@@ -301,6 +318,7 @@ impl BlockEncoder {
     pub fn finish(&mut self) -> Vec<u8> {
         self.cells = 0;
         self.rows.clear();
+        self.row_counts.clear();
         self.models = Models::new();
         self.seen = Seen::new(self.n);
         std::mem::take(&mut self.rc).finish()
@@ -331,10 +349,6 @@ fn reference_rows<'r>(
         ra
     };
     (ra, rb, row)
-}
-
-fn hamming(a: &[u64], b: &[u64]) -> u32 {
-    a.iter().zip(b).map(|(x, y)| (x ^ y).count_ones()).sum()
 }
 
 /// Decodes the cells of one block in order. Memory: one bitset of `n` bits
