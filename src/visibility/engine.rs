@@ -500,39 +500,35 @@ impl<'a> VisibilityEngine<'a> {
     /// together with `always`: ascending. `None` for a cell with a sample
     /// in one of the rectangles. Only those objects can get another verdict
     /// at the cell's samples when chains inside the rectangles come or go
-    /// (docs/DESIGN.md, "Incremental bakes").
+    /// (docs/DESIGN.md, "Incremental bakes"). A unit shared by cells is
+    /// searched once per chunk of [`DIRECTION_CHUNK`] cells (a cell's list
+    /// is the union of its units' lists, whatever the order).
     pub fn objects_in_directions(
         &self,
         cells: &[usize],
         changed: &[Rect],
         always: &[u32],
     ) -> Vec<Option<Vec<u32>>> {
-        let index = &self.index;
-        cells
-            .par_iter()
-            .map_init(
+        let mut out = Vec::with_capacity(cells.len());
+        for chunk in cells.chunks(DIRECTION_CHUNK) {
+            let mut units: Vec<UnitId> = chunk.iter().flat_map(|&c| self.cell_units(c)).collect();
+            units.sort_unstable();
+            units.dedup();
+            let found: Vec<Option<Vec<u32>>> = units
+                .par_iter()
+                .map_init(
+                    || ObjectSet::new(self.objects),
+                    |marks, &unit| self.unit_objects_in_directions(unit, changed, marks),
+                )
+                .collect();
+            let of: HashMap<UnitId, Option<Vec<u32>>> = units.into_iter().zip(found).collect();
+            out.par_extend(chunk.par_iter().map_init(
                 || ObjectSet::new(self.objects),
                 |marks, &cell| {
                     marks.clear();
-                    let mut stack = Vec::new();
                     for unit in self.cell_units(cell) {
-                        for p in self.unit_points(unit) {
-                            let dirs = ChangeDirections::at(p, changed)?;
-                            stack.extend(index.root);
-                            while let Some(n) = stack.pop() {
-                                let node = &index.pyramid[n as usize];
-                                if !dirs.may_hold(&node.rect) {
-                                    continue;
-                                }
-                                stack.extend(&node.children);
-                                for &o in &node.objects {
-                                    if !marks.contains(o as usize)
-                                        && dirs.holds(&index.objects[o as usize].rect)
-                                    {
-                                        marks.insert(o as usize);
-                                    }
-                                }
-                            }
+                        for &o in of[&unit].as_ref()? {
+                            marks.insert(o as usize);
                         }
                     }
                     for &o in always {
@@ -540,8 +536,41 @@ impl<'a> VisibilityEngine<'a> {
                     }
                     Some(marks.to_vec())
                 },
-            )
-            .collect()
+            ));
+        }
+        out
+    }
+
+    /// The objects that, seen from some sample of `unit`, lie in the
+    /// directions of a rectangle of `changed` (ascending; `marks` is
+    /// scratch of one bit per object); `None` when a sample lies in one of
+    /// the rectangles.
+    fn unit_objects_in_directions(
+        &self,
+        unit: UnitId,
+        changed: &[Rect],
+        marks: &mut ObjectSet,
+    ) -> Option<Vec<u32>> {
+        let index = &self.index;
+        marks.clear();
+        let mut stack = Vec::new();
+        for p in self.unit_points(unit) {
+            let dirs = ChangeDirections::at(p, changed)?;
+            stack.extend(index.root);
+            while let Some(n) = stack.pop() {
+                let node = &index.pyramid[n as usize];
+                if !dirs.may_hold(&node.rect) {
+                    continue;
+                }
+                stack.extend(&node.children);
+                for &o in &node.objects {
+                    if !marks.contains(o as usize) && dirs.holds(&index.objects[o as usize].rect) {
+                        marks.insert(o as usize);
+                    }
+                }
+            }
+        }
+        Some(marks.to_vec())
     }
 
     /// For each cell of `cells`, those objects of `wanted[i]` that some
@@ -850,6 +879,10 @@ impl ChangeDirections {
             .any(|&(a, b, _)| bins_overlap(bins, (a - 1, b + 1)))
     }
 }
+
+/// Cells whose units [`VisibilityEngine::objects_in_directions`] searches
+/// together: the units' lists are held for one chunk at a time.
+const DIRECTION_CHUNK: usize = 4096;
 
 fn check_index_size(scene: &Scene, settings: &Settings) -> Result<()> {
     let mut bounds = Rect::EMPTY;
