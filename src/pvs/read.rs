@@ -292,6 +292,23 @@ impl PvsReader {
         })?;
         Ok(out)
     }
+    /// The sets (ascending input object indices) of the cells of block
+    /// `b`, in order, each block decoded at once: memory one block's sets.
+    pub fn block_sets(&self, b: usize) -> Result<Vec<Vec<u32>>> {
+        let bc = self.parsed.block_cells;
+        if b * bc >= self.cell_count() {
+            return Err(Error::format(format!("there is no block {b}")));
+        }
+        let last = (self.cell_count() - b * bc).min(bc) - 1;
+        let (mut out, mut marks) = (Vec::new(), Vec::new());
+        let mut sets = Vec::with_capacity(last + 1);
+        self.decode_block(b, last, |_, ranks, _| {
+            self.to_input(ranks, &mut marks, &mut out);
+            sets.push(out.clone());
+            Ok(())
+        })?;
+        Ok(sets)
+    }
     /// Input ids of the objects visible from the cell.
     pub fn visible_ids(&self, cell: usize) -> Result<Vec<&str>> {
         Ok(self

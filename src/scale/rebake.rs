@@ -102,13 +102,24 @@ fn unique<'a>(ids: impl Iterator<Item = &'a str>) -> Option<HashMap<&'a str, u32
     Some(map)
 }
 
-/// Every cell's set for the new scene, copying what OLD.pvs allows.
+/// Where a cell's set comes from in an incremental bake.
+pub enum CellSource {
+    /// The set of this cell of OLD.pvs, mapped to the new numbering by id.
+    Copied(usize),
+    /// Solved again: the set itself.
+    Solved(Vec<u32>),
+}
+
+/// Where every cell's set for the new scene comes from, copying what
+/// OLD.pvs allows. Only the sets of the cells solved again are held: a
+/// copied cell's set is read from OLD.pvs when it is written
+/// ([`rebake_all`]).
 pub fn rebake(
     scene: &Scene,
     engine: &VisibilityEngine,
     old: &PvsReader,
     progress: &(dyn Fn(u64) + Sync),
-) -> Result<(Vec<Vec<u32>>, SolveStats, RebakeStats)> {
+) -> Result<(Vec<CellSource>, SolveStats, RebakeStats)> {
     let cells = &scene.cells.triangles;
     let mut stats = RebakeStats::default();
     let all: Vec<usize> = (0..cells.len()).collect();
@@ -117,7 +128,8 @@ pub fn rebake(
         stats.cells_recomputed = cells.len();
         stats.cells_new = cells.len();
         stats.full_because = Some(why);
-        (sets, solve, stats.clone())
+        let sources = sets.into_iter().map(CellSource::Solved).collect();
+        (sources, solve, stats.clone())
     };
     if old.info().frame != scene.city.frame {
         return Ok(full(
@@ -173,28 +185,21 @@ pub fn rebake(
             .or_insert(Some(i));
     }
     // One pass over the old file (each block decoded once): per old cell,
-    // whether it holds a member of X_old, and its set mapped to the new
-    // numbering by id (an object that is gone is left out; every member
-    // outside X is in the new city under the same id).
-    let mut old_sets: Vec<(bool, Vec<u32>)> = Vec::with_capacity(old.cell_count());
+    // whether it holds a member of X_old. Its set is read again only for
+    // the cells solved again (below) or when it is written (copied).
+    let mut saw_change: Vec<bool> = Vec::with_capacity(old.cell_count());
     old.for_each_visible(|_, set| {
-        let saw = set.iter().any(|&o| changed_old[o as usize]);
-        let mut mapped: Vec<u32> = set
-            .iter()
-            .filter_map(|&o| new_ids.get(old.object_ids()[o as usize].as_str()).copied())
-            .collect();
-        mapped.sort_unstable();
-        old_sets.push((saw, mapped));
+        saw_change.push(set.iter().any(|&o| changed_old[o as usize]));
         Ok(())
     })?;
     // The near field of every sample of a cell lies in the cell's bounding
     // box grown by the near field and a pixel (the window is pixel-aligned).
     let reach = scene.settings.near_field + 2.0 * scene.settings.pixel;
-    let mut sets: Vec<Option<Vec<u32>>> = vec![None; cells.len()];
+    let mut copied_from: Vec<Option<usize>> = vec![None; cells.len()];
     // Cells to probe, and cells to solve again for the objects in X's
-    // directions only, with their old sets.
-    let mut candidates: Vec<(usize, Vec<u32>)> = Vec::new();
-    let mut in_part: Vec<(usize, Vec<u32>)> = Vec::new();
+    // directions only, with their old cells.
+    let mut candidates: Vec<(usize, usize)> = Vec::new();
+    let mut in_part: Vec<(usize, usize)> = Vec::new();
     for (c, t) in cells.iter().enumerate() {
         let Some(&Some(oc)) = old_cell.get(&super::diff::cell_key(t)) else {
             stats.cells_new += 1;
@@ -205,27 +210,37 @@ pub fn rebake(
             stats.cells_near_change += 1;
             continue;
         }
-        let (saw, mapped) = std::mem::take(&mut old_sets[oc]);
-        if saw {
+        if saw_change[oc] {
             stats.cells_saw_change += 1;
-            in_part.push((c, mapped));
+            in_part.push((c, oc));
         } else {
-            candidates.push((c, mapped));
+            candidates.push((c, oc));
         }
     }
-    drop(old_sets);
+    drop(saw_change);
     let t = std::time::Instant::now();
     let list: Vec<usize> = candidates.iter().map(|(c, _)| *c).collect();
     let hidden = engine.probe_cells(&list, &probes);
     stats.probe_seconds = t.elapsed().as_secs_f64();
-    for ((c, set), ok) in candidates.into_iter().zip(hidden) {
+    for ((c, oc), ok) in candidates.into_iter().zip(hidden) {
         if ok {
-            sets[c] = Some(set);
+            copied_from[c] = Some(oc);
         } else {
             stats.cells_probe_failed += 1;
-            in_part.push((c, set));
+            in_part.push((c, oc));
         }
     }
+    // The old sets of the cells solved in part, mapped to the new
+    // numbering, read in the old file's order (each block decoded once).
+    let new_of_old = new_numbering(old, &new_ids);
+    in_part.sort_unstable_by_key(|&(_, oc)| oc);
+    let mut reader = OldSets::new(old, &new_of_old);
+    let mut in_part_sets: Vec<(usize, Vec<u32>)> = Vec::with_capacity(in_part.len());
+    for &(c, oc) in &in_part {
+        in_part_sets.push((c, reader.set(oc)?));
+    }
+    drop(reader);
+    let in_part = in_part_sets;
     let part = plan_in_part(engine, in_part, &rects, &changed_new);
     stats.cells_solved_in_part = part.cells.len();
     stats.objects_solved_in_part = part
@@ -233,8 +248,9 @@ pub fn rebake(
         .iter()
         .map(|w| w.everywhere.len() + w.where_changed.len())
         .sum();
+    let mut solved: Vec<Option<Vec<u32>>> = vec![None; cells.len()];
     let todo: Vec<usize> = (0..cells.len())
-        .filter(|&c| sets[c].is_none() && part.cells.binary_search(&c).is_err())
+        .filter(|&c| copied_from[c].is_none() && part.cells.binary_search(&c).is_err())
         .collect();
     stats.cells_recomputed = todo.len() + part.cells.len();
     stats.cells_copied = cells.len() - stats.cells_recomputed;
@@ -243,17 +259,67 @@ pub fn rebake(
     for ((c, mut kept), seen) in part.cells.into_iter().zip(part.kept).zip(seen) {
         kept.extend(seen);
         kept.sort_unstable();
-        sets[c] = Some(kept);
+        solved[c] = Some(kept);
     }
-    let (solved, solve) = engine.solve_cell_list(&todo, progress);
-    for (c, set) in todo.into_iter().zip(solved) {
-        sets[c] = Some(set);
+    let (sets, solve) = engine.solve_cell_list(&todo, progress);
+    for (c, set) in todo.into_iter().zip(sets) {
+        solved[c] = Some(set);
     }
-    let sets = sets
+    let sources = copied_from
         .into_iter()
-        .map(|s| s.expect("every cell is copied or solved"))
+        .zip(solved)
+        .map(|(copied, solved)| match (copied, solved) {
+            (Some(oc), _) => CellSource::Copied(oc),
+            (None, Some(set)) => CellSource::Solved(set),
+            (None, None) => unreachable!("every cell is copied or solved"),
+        })
         .collect();
-    Ok((sets, solve, stats))
+    Ok((sources, solve, stats))
+}
+
+/// Per object of OLD.pvs, its index in the new city (by id), if it is there.
+fn new_numbering(old: &PvsReader, new_ids: &HashMap<&str, u32>) -> Vec<Option<u32>> {
+    old.object_ids()
+        .iter()
+        .map(|id| new_ids.get(id.as_str()).copied())
+        .collect()
+}
+
+/// Reads cells' sets from OLD.pvs mapped to the new numbering (an object
+/// that is gone is left out; every object outside X is in the new city
+/// under the same id), holding one decoded block: cells asked for in
+/// ascending order decode each block once.
+struct OldSets<'a> {
+    old: &'a PvsReader,
+    new_of_old: &'a [Option<u32>],
+    block: Option<usize>,
+    sets: Vec<Vec<u32>>,
+}
+
+impl<'a> OldSets<'a> {
+    fn new(old: &'a PvsReader, new_of_old: &'a [Option<u32>]) -> Self {
+        OldSets {
+            old,
+            new_of_old,
+            block: None,
+            sets: Vec::new(),
+        }
+    }
+
+    /// Old cell `oc`'s set, ascending in the new numbering.
+    fn set(&mut self, oc: usize) -> Result<Vec<u32>> {
+        let b = oc / self.old.block_cells();
+        if self.block != Some(b) {
+            self.sets = self.old.block_sets(b)?;
+            self.block = Some(b);
+        }
+        let mut mapped: Vec<u32> = self.sets[oc % self.old.block_cells()]
+            .iter()
+            .filter_map(|&o| self.new_of_old[o as usize])
+            .collect();
+        mapped.sort_unstable();
+        Ok(mapped)
+    }
 }
 
 /// The cells solved in part, ascending, with what each is solved for and
@@ -319,7 +385,7 @@ pub fn rebake_all(
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<(crate::scale::resume::RangeBake, RebakeStats)> {
     let t = std::time::Instant::now();
-    let (sets, solve, stats) = rebake(scene, engine, old, progress)?;
+    let (sources, solve, stats) = rebake(scene, engine, old, progress)?;
     let cells = scene.cells.triangles.len();
     let mut part = crate::scale::resume::empty_part(
         scene,
@@ -328,9 +394,16 @@ pub fn rebake_all(
         0..cells,
     );
     let mut tally = crate::bake::SetTally::default();
-    for set in &sets {
-        part.push_set(set);
-        tally.add(set);
+    let new_ids = unique(scene.city.buildings.iter().map(|b| b.id.as_str()));
+    let new_of_old = new_ids.map_or_else(Vec::new, |ids| new_numbering(old, &ids));
+    let mut reader = OldSets::new(old, &new_of_old);
+    for source in sources {
+        let set = match source {
+            CellSource::Copied(oc) => reader.set(oc)?,
+            CellSource::Solved(set) => set,
+        };
+        part.push_set(&set);
+        tally.add(&set);
     }
     let solve = SolveStats {
         samples: engine.sample_count(0..cells),

@@ -100,6 +100,29 @@ fn round_trip_equals_the_data_for_every_frame_kind() {
 }
 
 #[test]
+fn block_sets_give_every_cell_of_each_block_in_order() {
+    let data = strip(
+        700,
+        90,
+        Frame::LonLat {
+            lon0: 26.94,
+            lat0: 60.47,
+        },
+    );
+    let reader = PvsReader::from_bytes(encode_pvs(&data).unwrap().0).unwrap();
+    let blocks = reader.cell_count().div_ceil(reader.block_cells());
+    assert!(blocks >= 3, "the strip spans several blocks");
+    let mut all = Vec::new();
+    for b in 0..blocks {
+        let sets = reader.block_sets(b).unwrap();
+        assert!(sets.len() <= reader.block_cells());
+        all.extend(sets);
+    }
+    assert_eq!(all, data.visible);
+    crate::common::error_of(reader.block_sets(blocks), ErrorKind::Format);
+}
+
+#[test]
 fn empty_data_round_trips() {
     let data = PvsData {
         object_prints: Vec::new(),
