@@ -11,6 +11,7 @@ use super::common::{InputArgs, RunArgs, SceneArgs, ViewArgs};
 use crate::Result;
 use crate::input::{City, read_city, read_city_bytes};
 use crate::prepare::{StageTime, prepare_read};
+use crate::scale::rebake::RebakeStats;
 use crate::scale::resume::{bake_range, remove_checkpoint};
 use crate::scale::shard::{ShardArg, ShardSpec};
 
@@ -203,15 +204,23 @@ fn run_in_pool(args: &BakeArgs, threads: usize) -> Result<i32> {
         Some(b) => b.println(line),
         None => eprintln!("{line}"),
     };
-    let (baked, rebake) = match &args.previous {
+    let rebaked = match &args.previous {
         Some(previous) => {
             let old = crate::pvs::PvsReader::open(previous).map_err(|e| e.context("--previous"))?;
             crate::scale::rebake::check_previous(&scene, &old, previous)?;
-            let (baked, stats) = crate::scale::rebake::rebake_all(&scene, &engine, &old, &tick)?;
-            (baked, Some(stats))
+            Some(crate::scale::rebake::rebake_all(
+                &scene, &engine, &old, &tick,
+            )?)
         }
-        None => (
-            bake_range(
+        None => None,
+    };
+    let (baked, rebake) = match rebaked {
+        Some(Ok((baked, stats))) => (baked, Some(stats)),
+        // Without --previous, or with one that cannot be used cell by
+        // cell: the whole range, streamed and checkpointed as any bake.
+        other => {
+            let full_because = other.and_then(std::result::Result::err);
+            let baked = bake_range(
                 &scene,
                 &engine,
                 spec,
@@ -219,9 +228,9 @@ fn run_in_pool(args: &BakeArgs, threads: usize) -> Result<i32> {
                 &output,
                 &tick,
                 &mut log,
-            )?,
-            None,
-        ),
+            )?;
+            (baked, full_because.map(|why| RebakeStats::full(cells, why)))
+        }
     };
     if let Some(b) = &bar {
         b.finish_and_clear();

@@ -110,6 +110,14 @@ pub enum CellSource {
     Solved(Vec<u32>),
 }
 
+/// What an incremental bake found it can do.
+pub enum Rebake {
+    /// Every cell's source, with the solve's and the rebake's statistics.
+    Sources(Vec<CellSource>, SolveStats, RebakeStats),
+    /// OLD.pvs cannot be used cell by cell (the reason): bake in full.
+    Full(String),
+}
+
 /// Where every cell's set for the new scene comes from, copying what
 /// OLD.pvs allows. Only the sets of the cells solved again are held: a
 /// copied cell's set is read from OLD.pvs when it is written
@@ -119,21 +127,11 @@ pub fn rebake(
     engine: &VisibilityEngine,
     old: &PvsReader,
     progress: &(dyn Fn(u64) + Sync),
-) -> Result<(Vec<CellSource>, SolveStats, RebakeStats)> {
+) -> Result<Rebake> {
     let cells = &scene.cells.triangles;
     let mut stats = RebakeStats::default();
-    let all: Vec<usize> = (0..cells.len()).collect();
-    let full = |stats: &mut RebakeStats, why: String| {
-        let (sets, solve) = engine.solve_cell_list(&all, progress);
-        stats.cells_recomputed = cells.len();
-        stats.cells_new = cells.len();
-        stats.full_because = Some(why);
-        let sources = sets.into_iter().map(CellSource::Solved).collect();
-        (sources, solve, stats.clone())
-    };
     if old.info().frame != scene.city.frame {
-        return Ok(full(
-            &mut stats,
+        return Ok(Rebake::Full(
             "the frame (the centre of the buildings' bounding box) moved".into(),
         ));
     }
@@ -143,7 +141,7 @@ pub fn rebake(
         unique(old.object_ids().iter().map(String::as_str)),
         unique(scene.city.buildings.iter().map(|b| b.id.as_str())),
     ) else {
-        return Ok(full(&mut stats, "object ids are not unique".into()));
+        return Ok(Rebake::Full("object ids are not unique".into()));
     };
 
     // X: the changed objects, old and new versions.
@@ -274,7 +272,7 @@ pub fn rebake(
             (None, None) => unreachable!("every cell is copied or solved"),
         })
         .collect();
-    Ok((sources, solve, stats))
+    Ok(Rebake::Sources(sources, solve, stats))
 }
 
 /// Per object of OLD.pvs, its index in the new city (by id), if it is there.
@@ -377,15 +375,19 @@ fn plan_in_part(
 }
 
 /// [`rebake`] packaged like a checkpointed bake of all cells, for the
-/// `bake` command.
+/// `bake` command; `Err` with the reason when OLD.pvs cannot be used cell
+/// by cell and the city is to be baked in full (as any bake, streamed).
 pub fn rebake_all(
     scene: &Scene,
     engine: &VisibilityEngine,
     old: &PvsReader,
     progress: &(dyn Fn(u64) + Sync),
-) -> Result<(crate::scale::resume::RangeBake, RebakeStats)> {
+) -> Result<std::result::Result<(crate::scale::resume::RangeBake, RebakeStats), String>> {
     let t = std::time::Instant::now();
-    let (sources, solve, stats) = rebake(scene, engine, old, progress)?;
+    let (sources, solve, stats) = match rebake(scene, engine, old, progress)? {
+        Rebake::Sources(sources, solve, stats) => (sources, solve, stats),
+        Rebake::Full(why) => return Ok(Err(why)),
+    };
     let cells = scene.cells.triangles.len();
     let mut part = crate::scale::resume::empty_part(
         scene,
@@ -409,7 +411,7 @@ pub fn rebake_all(
         samples: engine.sample_count(0..cells),
         ..solve
     };
-    Ok((
+    Ok(Ok((
         crate::scale::resume::RangeBake {
             part,
             stats: tally.stats(scene.city.buildings.len(), &solve),
@@ -421,5 +423,18 @@ pub fn rebake_all(
             checkpoints_written: 0,
         },
         stats,
-    ))
+    )))
+}
+
+impl RebakeStats {
+    /// An incremental bake that solved all of its `cells` cells because
+    /// the previous file could not be used cell by cell (`why`).
+    pub fn full(cells: usize, why: String) -> Self {
+        RebakeStats {
+            cells_recomputed: cells,
+            cells_new: cells,
+            full_because: Some(why),
+            ..RebakeStats::default()
+        }
+    }
 }

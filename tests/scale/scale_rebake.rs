@@ -136,6 +136,46 @@ fn twenty_single_building_edits_give_the_full_bakes_bytes() {
 }
 
 #[test]
+fn an_edit_that_moves_the_frame_bakes_in_full_with_the_reason() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    run(
+        d,
+        &[
+            "generate",
+            "--buildings",
+            "60",
+            "--seed",
+            "5",
+            "-o",
+            "base.geojson",
+        ],
+    );
+    bake(d, "base.geojson", "base.pvs", None);
+    // A copy of a building well outside the city moves the centre of the
+    // buildings' bounding box, so the frame.
+    let mut city: Value =
+        serde_json::from_slice(&std::fs::read(d.join("base.geojson")).unwrap()).unwrap();
+    let features = city["features"].as_array_mut().unwrap();
+    let mut far = features[0].clone();
+    far["id"] = "far-away".into();
+    shift(&mut far["geometry"]["coordinates"], 4e-3, 0.0);
+    features.push(far);
+    std::fs::write(d.join("edit.geojson"), serde_json::to_vec(&city).unwrap()).unwrap();
+    bake(d, "edit.geojson", "full.pvs", None);
+    let s = bake(d, "edit.geojson", "inc.pvs", Some("base.pvs"));
+    assert_eq!(
+        std::fs::read(d.join("full.pvs")).unwrap(),
+        std::fs::read(d.join("inc.pvs")).unwrap()
+    );
+    let why = s["rebake"]["full_because"].as_str().unwrap();
+    assert!(why.contains("frame"), "{why}");
+    assert_eq!(s["cells_copied"].as_u64(), Some(0));
+    assert_eq!(s["cells_recomputed"], s["cells"]);
+    assert!(!d.join("inc.pvs.citypvs-checkpoint").exists());
+}
+
+#[test]
 fn a_previous_file_that_cannot_be_used_is_refused_in_one_line() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
