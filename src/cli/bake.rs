@@ -11,7 +11,6 @@ use super::common::{InputArgs, RunArgs, SceneArgs, ViewArgs};
 use crate::Result;
 use crate::input::{City, read_city, read_city_bytes};
 use crate::prepare::{StageTime, prepare_read};
-use crate::scale::rebake::RebakeStats;
 use crate::scale::resume::{bake_range, remove_checkpoint};
 use crate::scale::shard::{ShardArg, ShardSpec};
 
@@ -204,33 +203,28 @@ fn run_in_pool(args: &BakeArgs, threads: usize) -> Result<i32> {
         Some(b) => b.println(line),
         None => eprintln!("{line}"),
     };
-    let rebaked = match &args.previous {
+    let (rebaked, rebake) = match &args.previous {
         Some(previous) => {
             let old = crate::pvs::PvsReader::open(previous).map_err(|e| e.context("--previous"))?;
             crate::scale::rebake::check_previous(&scene, &old, previous)?;
-            Some(crate::scale::rebake::rebake_all(
-                &scene, &engine, &old, &tick,
-            )?)
+            let (baked, stats) = crate::scale::rebake::rebake_all(&scene, &engine, &old, &tick)?;
+            (baked, Some(stats))
         }
-        None => None,
+        None => (None, None),
     };
-    let (baked, rebake) = match rebaked {
-        Some(Ok((baked, stats))) => (baked, Some(stats)),
-        // Without --previous, or with one that cannot be used cell by
-        // cell: the whole range, streamed and checkpointed as any bake.
-        other => {
-            let full_because = other.and_then(std::result::Result::err);
-            let baked = bake_range(
-                &scene,
-                &engine,
-                spec,
-                range.clone(),
-                &output,
-                &tick,
-                &mut log,
-            )?;
-            (baked, full_because.map(|why| RebakeStats::full(cells, why)))
-        }
+    // Without --previous, or with one that cannot be used cell by cell: the
+    // whole range, streamed and checkpointed as any bake.
+    let baked = match rebaked {
+        Some(baked) => baked,
+        None => bake_range(
+            &scene,
+            &engine,
+            spec,
+            range.clone(),
+            &output,
+            &tick,
+            &mut log,
+        )?,
     };
     if let Some(b) = &bar {
         b.finish_and_clear();

@@ -248,6 +248,11 @@ impl PvsReader {
             }
         }
     }
+    /// The index in block `b` (which holds a cell) of its last cell.
+    fn last_in_block(&self, b: usize) -> usize {
+        let bc = self.parsed.block_cells;
+        (self.cell_count() - b * bc).min(bc) - 1
+    }
     /// Decode the cells of block `b` up to and including `last` (index in
     /// the block), calling `f(cell, ranks, references)` for each.
     fn decode_block(
@@ -295,11 +300,10 @@ impl PvsReader {
     /// The sets (ascending input object indices) of the cells of block
     /// `b`, in order, each block decoded at once: memory one block's sets.
     pub fn block_sets(&self, b: usize) -> Result<Vec<Vec<u32>>> {
-        let bc = self.parsed.block_cells;
-        if b * bc >= self.cell_count() {
+        if b * self.parsed.block_cells >= self.cell_count() {
             return Err(Error::format(format!("there is no block {b}")));
         }
-        let last = (self.cell_count() - b * bc).min(bc) - 1;
+        let last = self.last_in_block(b);
         let (mut out, mut marks) = (Vec::new(), Vec::new());
         let mut sets = Vec::with_capacity(last + 1);
         self.decode_block(b, last, |_, ranks, _| {
@@ -348,9 +352,7 @@ impl PvsReader {
         let (mut out, mut marks) = (Vec::new(), Vec::new());
         let blocks = self.cell_count().div_ceil(self.parsed.block_cells);
         for b in 0..blocks {
-            let last =
-                (self.cell_count() - b * self.parsed.block_cells).min(self.parsed.block_cells) - 1;
-            self.decode_block(b, last, |c, ranks, mode| {
+            self.decode_block(b, self.last_in_block(b), |c, ranks, mode| {
                 self.to_input(ranks, &mut marks, &mut out);
                 f(c, &out, mode)
             })?;

@@ -113,9 +113,19 @@ pub enum CellSource {
 /// What an incremental bake found it can do.
 pub enum Rebake {
     /// Every cell's source, with the solve's and the rebake's statistics.
-    Sources(Vec<CellSource>, SolveStats, RebakeStats),
+    Sources(Sources),
     /// OLD.pvs cannot be used cell by cell (the reason): bake in full.
     Full(String),
+}
+
+/// Where every cell's set comes from, and what it took.
+pub struct Sources {
+    pub cells: Vec<CellSource>,
+    /// Per object of OLD.pvs, its index in the new city (by id), if it is
+    /// there: how a copied cell's set is mapped.
+    pub new_of_old: Vec<Option<u32>>,
+    pub solve: SolveStats,
+    pub stats: RebakeStats,
 }
 
 /// Where every cell's set for the new scene comes from, copying what
@@ -193,7 +203,8 @@ pub fn rebake(
     // The near field of every sample of a cell lies in the cell's bounding
     // box grown by the near field and a pixel (the window is pixel-aligned).
     let reach = scene.settings.near_field + 2.0 * scene.settings.pixel;
-    let mut copied_from: Vec<Option<usize>> = vec![None; cells.len()];
+    let mut sources: Vec<Option<CellSource>> = Vec::with_capacity(cells.len());
+    sources.resize_with(cells.len(), || None);
     // Cells to probe, and cells to solve again for the objects in X's
     // directions only, with their old cells.
     let mut candidates: Vec<(usize, usize)> = Vec::new();
@@ -222,7 +233,7 @@ pub fn rebake(
     stats.probe_seconds = t.elapsed().as_secs_f64();
     for ((c, oc), ok) in candidates.into_iter().zip(hidden) {
         if ok {
-            copied_from[c] = Some(oc);
+            sources[c] = Some(CellSource::Copied(oc));
         } else {
             stats.cells_probe_failed += 1;
             in_part.push((c, oc));
@@ -233,12 +244,10 @@ pub fn rebake(
     let new_of_old = new_numbering(old, &new_ids);
     in_part.sort_unstable_by_key(|&(_, oc)| oc);
     let mut reader = OldSets::new(old, &new_of_old);
-    let mut in_part_sets: Vec<(usize, Vec<u32>)> = Vec::with_capacity(in_part.len());
-    for &(c, oc) in &in_part {
-        in_part_sets.push((c, reader.set(oc)?));
-    }
-    drop(reader);
-    let in_part = in_part_sets;
+    let in_part = in_part
+        .into_iter()
+        .map(|(c, oc)| Ok((c, reader.set(oc)?)))
+        .collect::<Result<Vec<_>>>()?;
     let part = plan_in_part(engine, in_part, &rects, &changed_new);
     stats.cells_solved_in_part = part.cells.len();
     stats.objects_solved_in_part = part
@@ -246,9 +255,8 @@ pub fn rebake(
         .iter()
         .map(|w| w.everywhere.len() + w.where_changed.len())
         .sum();
-    let mut solved: Vec<Option<Vec<u32>>> = vec![None; cells.len()];
     let todo: Vec<usize> = (0..cells.len())
-        .filter(|&c| copied_from[c].is_none() && part.cells.binary_search(&c).is_err())
+        .filter(|&c| sources[c].is_none() && part.cells.binary_search(&c).is_err())
         .collect();
     stats.cells_recomputed = todo.len() + part.cells.len();
     stats.cells_copied = cells.len() - stats.cells_recomputed;
@@ -257,22 +265,21 @@ pub fn rebake(
     for ((c, mut kept), seen) in part.cells.into_iter().zip(part.kept).zip(seen) {
         kept.extend(seen);
         kept.sort_unstable();
-        solved[c] = Some(kept);
+        sources[c] = Some(CellSource::Solved(kept));
     }
     let (sets, solve) = engine.solve_cell_list(&todo, progress);
     for (c, set) in todo.into_iter().zip(sets) {
-        solved[c] = Some(set);
+        sources[c] = Some(CellSource::Solved(set));
     }
-    let sources = copied_from
-        .into_iter()
-        .zip(solved)
-        .map(|(copied, solved)| match (copied, solved) {
-            (Some(oc), _) => CellSource::Copied(oc),
-            (None, Some(set)) => CellSource::Solved(set),
-            (None, None) => unreachable!("every cell is copied or solved"),
-        })
-        .collect();
-    Ok(Rebake::Sources(sources, solve, stats))
+    Ok(Rebake::Sources(Sources {
+        cells: sources
+            .into_iter()
+            .map(|s| s.expect("every cell is copied or solved"))
+            .collect(),
+        new_of_old,
+        solve,
+        stats,
+    }))
 }
 
 /// Per object of OLD.pvs, its index in the new city (by id), if it is there.
@@ -375,20 +382,26 @@ fn plan_in_part(
 }
 
 /// [`rebake`] packaged like a checkpointed bake of all cells, for the
-/// `bake` command; `Err` with the reason when OLD.pvs cannot be used cell
-/// by cell and the city is to be baked in full (as any bake, streamed).
+/// `bake` command, with its statistics; no bake when OLD.pvs cannot be
+/// used cell by cell and the city is to be baked in full (as any bake,
+/// streamed; the statistics say why).
 pub fn rebake_all(
     scene: &Scene,
     engine: &VisibilityEngine,
     old: &PvsReader,
     progress: &(dyn Fn(u64) + Sync),
-) -> Result<std::result::Result<(crate::scale::resume::RangeBake, RebakeStats), String>> {
+) -> Result<(Option<crate::scale::resume::RangeBake>, RebakeStats)> {
     let t = std::time::Instant::now();
-    let (sources, solve, stats) = match rebake(scene, engine, old, progress)? {
-        Rebake::Sources(sources, solve, stats) => (sources, solve, stats),
-        Rebake::Full(why) => return Ok(Err(why)),
-    };
     let cells = scene.cells.triangles.len();
+    let Sources {
+        cells: sources,
+        new_of_old,
+        solve,
+        stats,
+    } = match rebake(scene, engine, old, progress)? {
+        Rebake::Sources(sources) => sources,
+        Rebake::Full(why) => return Ok((None, RebakeStats::full(cells, why))),
+    };
     let mut part = crate::scale::resume::empty_part(
         scene,
         crate::scale::part::PartKind::Shard,
@@ -396,8 +409,6 @@ pub fn rebake_all(
         0..cells,
     );
     let mut tally = crate::bake::SetTally::default();
-    let new_ids = unique(scene.city.buildings.iter().map(|b| b.id.as_str()));
-    let new_of_old = new_ids.map_or_else(Vec::new, |ids| new_numbering(old, &ids));
     let mut reader = OldSets::new(old, &new_of_old);
     for source in sources {
         let set = match source {
@@ -411,8 +422,8 @@ pub fn rebake_all(
         samples: engine.sample_count(0..cells),
         ..solve
     };
-    Ok(Ok((
-        crate::scale::resume::RangeBake {
+    Ok((
+        Some(crate::scale::resume::RangeBake {
             part,
             stats: tally.stats(scene.city.buildings.len(), &solve),
             timing: crate::prepare::StageTime {
@@ -421,9 +432,9 @@ pub fn rebake_all(
             },
             cells_from_checkpoint: 0,
             checkpoints_written: 0,
-        },
+        }),
         stats,
-    )))
+    ))
 }
 
 impl RebakeStats {

@@ -180,6 +180,14 @@ impl<'a> VisibilityEngine<'a> {
         [v[0], v[1], v[2], n + e[0], n + e[1], n + e[2]]
     }
 
+    /// The units of `cells`, ascending, each once.
+    fn units_of_cells(&self, cells: impl IntoIterator<Item = usize>) -> Vec<UnitId> {
+        let mut units: Vec<UnitId> = cells.into_iter().flat_map(|c| self.cell_units(c)).collect();
+        units.sort_unstable();
+        units.dedup();
+        units
+    }
+
     /// The sample points of a unit, in order along its edge.
     fn unit_points(&self, unit: UnitId) -> Vec<DVec2> {
         let n = self.vertex_count();
@@ -398,9 +406,7 @@ impl<'a> VisibilityEngine<'a> {
         let mut start = range.start;
         while start < range.end {
             let end = (start + next_chunk(start).max(1)).min(range.end);
-            let mut needed: Vec<UnitId> = (start..end).flat_map(|c| self.cell_units(c)).collect();
-            needed.sort_unstable();
-            needed.dedup();
+            let needed = self.units_of_cells(start..end);
             let slots: HashMap<UnitId, OnceLock<std::sync::Arc<StoredSet>>> = needed
                 .iter()
                 .map(|&u| {
@@ -474,9 +480,7 @@ impl<'a> VisibilityEngine<'a> {
         if objects.is_empty() {
             return vec![true; cells.len()];
         }
-        let mut units: Vec<UnitId> = cells.iter().flat_map(|&c| self.cell_units(c)).collect();
-        units.sort_unstable();
-        units.dedup();
+        let units = self.units_of_cells(cells.iter().copied());
         let hidden: Vec<bool> = units
             .par_iter()
             .map_init(
@@ -501,8 +505,8 @@ impl<'a> VisibilityEngine<'a> {
     /// in one of the rectangles. Only those objects can get another verdict
     /// at the cell's samples when chains inside the rectangles come or go
     /// (docs/DESIGN.md, "Incremental bakes"). A unit shared by cells is
-    /// searched once per chunk of [`DIRECTION_CHUNK`] cells (a cell's list
-    /// is the union of its units' lists, whatever the order).
+    /// searched once per chunk of [`CHUNK_CELLS`] cells (a cell's list is
+    /// the union of its units' lists, whatever the order).
     pub fn objects_in_directions(
         &self,
         cells: &[usize],
@@ -510,10 +514,8 @@ impl<'a> VisibilityEngine<'a> {
         always: &[u32],
     ) -> Vec<Option<Vec<u32>>> {
         let mut out = Vec::with_capacity(cells.len());
-        for chunk in cells.chunks(DIRECTION_CHUNK) {
-            let mut units: Vec<UnitId> = chunk.iter().flat_map(|&c| self.cell_units(c)).collect();
-            units.sort_unstable();
-            units.dedup();
+        for chunk in cells.chunks(CHUNK_CELLS) {
+            let units = self.units_of_cells(chunk.iter().copied());
             let found: Vec<Option<Vec<u32>>> = units
                 .par_iter()
                 .map_init(
@@ -700,9 +702,7 @@ impl<'a> VisibilityEngine<'a> {
         let mut stats = SolveStats::default();
         let mut out = Vec::with_capacity(cells.len());
         for chunk in cells.chunks(CHUNK_CELLS) {
-            let mut units: Vec<UnitId> = chunk.iter().flat_map(|&c| self.cell_units(c)).collect();
-            units.sort_unstable();
-            units.dedup();
+            let units = self.units_of_cells(chunk.iter().copied());
             stats.units_solved += units.len();
             stats.peak_units_held = stats.peak_units_held.max(units.len());
             stats.samples += units
@@ -879,10 +879,6 @@ impl ChangeDirections {
             .any(|&(a, b, _)| bins_overlap(bins, (a - 1, b + 1)))
     }
 }
-
-/// Cells whose units [`VisibilityEngine::objects_in_directions`] searches
-/// together: the units' lists are held for one chunk at a time.
-const DIRECTION_CHUNK: usize = 4096;
 
 fn check_index_size(scene: &Scene, settings: &Settings) -> Result<()> {
     let mut bounds = Rect::EMPTY;

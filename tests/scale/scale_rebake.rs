@@ -9,6 +9,8 @@ use std::process::Output;
 
 use serde_json::Value;
 
+use super::scale_resume::generate;
+
 fn run(dir: &Path, args: &[&str]) -> Output {
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_citypvs"))
         .current_dir(dir)
@@ -64,18 +66,7 @@ fn bake(dir: &Path, city: &str, out: &str, previous: Option<&str>) -> Value {
 fn twenty_single_building_edits_give_the_full_bakes_bytes() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    run(
-        d,
-        &[
-            "generate",
-            "--buildings",
-            "100",
-            "--seed",
-            "11",
-            "-o",
-            "base.geojson",
-        ],
-    );
+    generate(d, "base.geojson", "100", "11");
     let base: Value =
         serde_json::from_slice(&std::fs::read(d.join("base.geojson")).unwrap()).unwrap();
     bake(d, "base.geojson", "base.pvs", None);
@@ -139,18 +130,7 @@ fn twenty_single_building_edits_give_the_full_bakes_bytes() {
 fn an_edit_that_moves_the_frame_bakes_in_full_with_the_reason() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    run(
-        d,
-        &[
-            "generate",
-            "--buildings",
-            "60",
-            "--seed",
-            "5",
-            "-o",
-            "base.geojson",
-        ],
-    );
+    generate(d, "base.geojson", "60", "5");
     bake(d, "base.geojson", "base.pvs", None);
     // A copy of a building well outside the city moves the centre of the
     // buildings' bounding box, so the frame.

@@ -61,7 +61,8 @@ fn kill_after_checkpoint(dir: &Path, args: &[&str], checkpoint: &Path) -> bool {
     }
 }
 
-fn generate(dir: &Path, name: &str, buildings: &str, seed: &str) {
+/// `citypvs generate --buildings BUILDINGS --seed SEED -o NAME` in `dir`.
+pub(super) fn generate(dir: &Path, name: &str, buildings: &str, seed: &str) {
     run(
         dir,
         &[
