@@ -122,24 +122,6 @@ pub fn bake(
     Ok((data, stats, timing))
 }
 
-/// Write the `.pvs` file of a bake of every cell of `scene` (`part` holds
-/// their sets in cell order) to `output`, one set at a time: what `bake`
-/// writes when it is not a shard.
-pub fn write_whole_city(
-    scene: &Scene,
-    part: &crate::scale::part::Part,
-    output: &std::path::Path,
-) -> Result<crate::pvs::WriteStats> {
-    crate::pvs::write_streamed(
-        output,
-        bake_info(scene),
-        scene.city.buildings.iter().map(|b| b.id.clone()).collect(),
-        crate::pvs::prints::object_prints(scene),
-        scene.cells.triangles.clone(),
-        &mut |f| part.for_each_set(f),
-    )
-}
-
 /// One representative point per object (the centre of its footprint's
 /// bounding box), for the file's spatial numbering of objects.
 pub fn object_points(scene: &Scene) -> Vec<glam::DVec2> {

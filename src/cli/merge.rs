@@ -31,14 +31,13 @@ struct Summary {
 }
 
 pub fn run(args: &MergeArgs) -> Result<i32> {
-    let data = crate::scale::shard::merge_shards(&args.shards)?;
-    let stats = crate::pvs::write_pvs(&args.output, &data)?;
+    let merged = crate::scale::shard::merge_shards(&args.shards, &args.output)?;
     let summary = Summary {
         output: args.output.display().to_string(),
         shards: args.shards.len(),
-        cells: data.cells.len(),
-        objects: data.object_ids.len(),
-        file_bytes: stats.file_bytes,
+        cells: merged.cells,
+        objects: merged.objects,
+        file_bytes: merged.write.file_bytes,
     };
     if args.json {
         println!(

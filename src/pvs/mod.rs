@@ -29,8 +29,8 @@ use crate::{Error, Result};
 pub use codec::SchemeSizes;
 pub use read::PvsReader;
 pub use write::{
-    EachSet, PvsWriter, encode_pvs, encode_pvs_with_points, points_from_sets, spatial_ranks,
-    write_pvs, write_pvs_with_points, write_streamed,
+    EachSet, PvsWriter, encode_pvs, encode_pvs_with_points, object_ranks, points_from_sets,
+    spatial_ranks, write_pvs, write_pvs_with_points, write_streamed,
 };
 
 /// The bake parameters and provenance stored in the header.

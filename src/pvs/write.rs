@@ -11,7 +11,7 @@ use glam::DVec2;
 use super::prints::ObjectPrint;
 use sha2::{Digest, Sha256};
 
-use super::blocks::BlockEncoder;
+use super::blocks::{BlockDecoder, BlockEncoder};
 use super::codec::{bitset_len, write_leb128, zero_rle_len};
 use super::{BLOCK_CELLS, BakeInfo, FORMAT_VERSION, HEADER_BYTES, MAGIC, PvsData, WriteStats};
 use crate::frame::Frame;
@@ -24,8 +24,10 @@ pub struct PvsWriter {
     object_count: u32,
     cell_count: usize,
     block_cells: usize,
-    /// Spatial rank of each input object index.
+    /// Spatial rank of each input object index, and the input index of
+    /// each rank.
     rank_of: Vec<u32>,
+    input_of_rank: Vec<u32>,
     /// Where the block index starts in `out`, and where the blocks start.
     index_at: usize,
     blocks_at: usize,
@@ -122,6 +124,13 @@ pub fn spatial_ranks(points: &[DVec2]) -> Vec<u32> {
         .collect();
     keyed.sort_unstable();
     keyed.into_iter().map(|(_, i)| i).collect()
+}
+
+/// The spatial numbering of the objects (the input index of each rank):
+/// by the centres of their fingerprints' rectangles when there are
+/// fingerprints, else by `points` (one per object).
+pub fn object_ranks(prints: &[ObjectPrint], points: Vec<DVec2>) -> Vec<u32> {
+    spatial_ranks(&numbering_points(prints, points))
 }
 
 /// The point the numbering uses for each object: the centre of its stored
@@ -250,7 +259,7 @@ impl PvsWriter {
                 )));
             }
         }
-        let input_of_rank = spatial_ranks(&numbering_points(&object_prints, object_points));
+        let input_of_rank = object_ranks(&object_prints, object_points);
         let mut rank_of = vec![0u32; n];
         for (r, &i) in input_of_rank.iter().enumerate() {
             rank_of[i as usize] = r as u32;
@@ -328,6 +337,7 @@ impl PvsWriter {
             cell_count: cells.len(),
             block_cells: block_cells as usize,
             rank_of,
+            input_of_rank,
             index_at,
             blocks_at,
             pushed: 0,
@@ -360,24 +370,78 @@ impl PvsWriter {
                 self.object_count
             )));
         }
-        let n = self.object_count as usize;
-        self.stats.raw_bitset_bytes += bitset_len(n) as u64;
-        self.stats.rle_bitset_bytes += zero_rle_len(visible, n);
         self.cur.clear();
         self.cur
             .extend(visible.iter().map(|&i| self.rank_of[i as usize]));
         self.cur.sort_unstable();
         let refs = self.block.push(&self.cur);
-        self.coding_counts[refs as usize] += 1;
+        self.count_cell(visible, refs);
         self.pushed += 1;
         if self.pushed.is_multiple_of(self.block_cells) || self.pushed == self.cell_count {
             let bytes = self.block.finish();
-            self.out.extend_from_slice(&bytes);
-            let b = self.pushed.div_ceil(self.block_cells);
-            let end = (self.out.len() - self.blocks_at) as u64;
-            patch_u64(&mut self.out, self.index_at + 8 * b, end);
+            self.close_block(&bytes);
         }
         Ok(())
+    }
+
+    /// Add the next whole block, coded elsewhere in this file's numbering
+    /// and block size (a shard's or a checkpoint's block): its `block_cells`
+    /// cells, or the rest of the file's cells for the last block. No cell
+    /// of the block may have been pushed. The bytes are decoded first, so a
+    /// malformed block is refused and the statistics are those
+    /// [`PvsWriter::push_cell`] gathers.
+    pub fn push_block(&mut self, bytes: &[u8]) -> Result<()> {
+        let first = self.pushed;
+        if !first.is_multiple_of(self.block_cells) {
+            return Err(Error::format(format!(
+                "a whole block cannot start at cell {first}, inside a block"
+            )));
+        }
+        let cells = self.block_cells.min(self.cell_count - first);
+        if cells == 0 {
+            return Err(Error::format(format!(
+                "more visible sets than the {} cells",
+                self.cell_count
+            )));
+        }
+        let bad =
+            |cell: usize, e: String| Error::format(format!("visible set of cell {cell}: {e}"));
+        let mut state = BlockDecoder::new(bytes, self.object_count, self.block_cells as u32)
+            .map_err(|e| bad(first, e))?;
+        let (mut ranks, mut visible) = (Vec::new(), Vec::new());
+        for k in 0..cells {
+            let refs = state.next(&mut ranks).map_err(|e| bad(first + k, e))?;
+            visible.clear();
+            visible.extend(ranks.iter().map(|&r| self.input_of_rank[r as usize]));
+            visible.sort_unstable();
+            self.count_cell(&visible, refs);
+        }
+        if state.pos() != bytes.len() {
+            return Err(Error::format(format!(
+                "the block of cells {first} to {} has {} bytes after its last cell",
+                first + cells - 1,
+                bytes.len() - state.pos()
+            )));
+        }
+        self.pushed += cells;
+        self.close_block(bytes);
+        Ok(())
+    }
+
+    /// Count a coded cell's set (ascending input indices) in the statistics.
+    fn count_cell(&mut self, visible: &[u32], refs: u8) {
+        let n = self.object_count as usize;
+        self.stats.raw_bitset_bytes += bitset_len(n) as u64;
+        self.stats.rle_bitset_bytes += zero_rle_len(visible, n);
+        self.coding_counts[refs as usize] += 1;
+    }
+
+    /// Append a finished block's bytes and its end in the block index.
+    fn close_block(&mut self, bytes: &[u8]) {
+        self.out.extend_from_slice(bytes);
+        let b = self.pushed.div_ceil(self.block_cells);
+        let end = (self.out.len() - self.blocks_at) as u64;
+        patch_u64(&mut self.out, self.index_at + 8 * b, end);
     }
 
     /// How many cells were coded with no, one and two references so far.

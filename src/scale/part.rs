@@ -22,13 +22,14 @@ use sha2::{Digest, Sha256};
 
 use crate::error::{Error, Result};
 use crate::input::Frame;
-use crate::pvs::BakeInfo;
+use crate::pvs::blocks::{BlockDecoder, BlockEncoder};
+use crate::pvs::{BLOCK_CELLS, BakeInfo, PvsWriter, WriteStats};
 use crate::settings::{BakeNumbers, Settings};
 
 /// The first eight bytes of every shard and checkpoint file.
 pub const PART_MAGIC: [u8; 8] = *b"CPVSPART";
 /// The part layout version this code writes and reads.
-pub const PART_VERSION: u32 = 2;
+pub const PART_VERSION: u32 = 3;
 /// Bytes before the payload: magic, version, reserved, length, checksum.
 pub const PREAMBLE_BYTES: usize = 8 + 4 + 4 + 8 + 32;
 /// Decoding may claim at most this many times the payload's size (plus
@@ -149,13 +150,25 @@ pub struct Part {
     pub object_prints: Vec<crate::pvs::prints::ObjectPrint>,
     /// The triangles of the range's cells: x0 y0 x1 y1 x2 y2 in local metres.
     pub cells: Vec<[f64; 6]>,
-    /// The sets of the first `set_lens.len()` cells of the range: the bytes
-    /// each set takes in `set_runs`, where a set is its runs of consecutive
-    /// indices, each as two LEB128 numbers (the run's start minus the end of
-    /// the run before, or minus 0 for the first; the run's length minus 1).
-    /// A cell that sees every object takes two bytes.
-    pub set_lens: Vec<u32>,
-    pub set_runs: Vec<u8>,
+    /// The visible sets of the first [`Part::done`] cells of the range.
+    /// Those in whole blocks of the `.pvs` file (docs/FORMAT.md, "Blocks":
+    /// [`BLOCK_CELLS`] cells from a multiple of it, the last block ending
+    /// at the last cell) that lie inside the range are kept as the file's
+    /// block bytes, in its spatial numbering of the objects (from
+    /// `object_prints`): `block_lens` gives each block's bytes in `blocks`.
+    pub block_lens: Vec<u32>,
+    pub blocks: Vec<u8>,
+    /// The other cells' sets: the head (the cells before the range's first
+    /// block boundary, whose block starts in the shard before) and the tail
+    /// (the cells after the last whole block: the start of a block that
+    /// ends in the next shard, or the cells done so far of a checkpoint's
+    /// open block). Each set is its runs of consecutive indices, each as two
+    /// LEB128 numbers (the run's start minus the end of the run before, or
+    /// minus 0 for the first; the run's length minus 1); `loose_lens` gives
+    /// each set's bytes in `loose_runs`. A cell that sees every object
+    /// takes two bytes.
+    pub loose_lens: Vec<u32>,
+    pub loose_runs: Vec<u8>,
 }
 
 /// Counts and hashes the bytes written to it.
@@ -254,48 +267,134 @@ impl Part {
 
     /// Cells of the range that have their sets.
     pub fn done(&self) -> usize {
-        self.set_lens.len()
+        let loose = self.loose_lens.len();
+        if self.block_lens.is_empty() {
+            return loose;
+        }
+        let start = self.blocks_start();
+        let in_blocks = (self.block_lens.len() as u64 * u64::from(BLOCK_CELLS))
+            .min(self.total_cells.saturating_sub(start));
+        loose + in_blocks as usize
     }
 
-    /// Add the set of the next cell of the range.
-    pub fn push_set(&mut self, set: &[u32]) {
-        let (lens, runs) = pack_sets(std::iter::once(set));
-        self.set_lens.extend(lens);
-        self.set_runs.extend(runs);
+    /// The head's length: the cells of the range before its first block
+    /// boundary (all of it when the range lies inside one block).
+    pub fn head_len(&self) -> usize {
+        let b = u64::from(BLOCK_CELLS);
+        let boundary = self.range_start.div_ceil(b) * b;
+        (boundary.min(self.range_end) - self.range_start) as usize
     }
 
-    /// Keep only the sets of the first `cells` cells.
-    pub fn truncate_sets(&mut self, cells: usize) {
-        let keep: usize = self.set_lens.iter().take(cells).map(|&l| l as usize).sum();
-        self.set_lens.truncate(cells);
-        self.set_runs.truncate(keep);
+    /// The first cell of the range's whole blocks.
+    fn blocks_start(&self) -> u64 {
+        self.range_start + self.head_len() as u64
+    }
+
+    /// Cells of the file's block that starts at cell `start` (a multiple
+    /// of [`BLOCK_CELLS`]).
+    fn block_cells_at(&self, start: u64) -> u64 {
+        (u64::from(BLOCK_CELLS)).min(self.total_cells - start)
+    }
+
+    /// Hand the stored sets to `f` in cell order: the loose ones decoded
+    /// (ascending object indices), a whole block as its bytes.
+    fn for_each_piece(&self, f: &mut dyn FnMut(Piece) -> Result<()>) -> Result<()> {
+        let head = self.head_len().min(self.loose_lens.len());
+        let mut at = 0;
+        let mut set = Vec::new();
+        let mut loose = |lens: &[u32], f: &mut dyn FnMut(Piece) -> Result<()>| {
+            for &len in lens {
+                set.clear();
+                let bytes = &self.loose_runs[at..at + len as usize];
+                decode_runs(bytes, |o| set.push(o))
+                    .ok_or_else(|| Error::format("a stored visible set is malformed"))?;
+                at += len as usize;
+                f(Piece::Set(&set))?;
+            }
+            Ok(())
+        };
+        loose(&self.loose_lens[..head], f)?;
+        let (mut start, mut byte) = (self.blocks_start(), 0usize);
+        for &len in &self.block_lens {
+            let cells = self.block_cells_at(start);
+            f(Piece::Block(
+                &self.blocks[byte..byte + len as usize],
+                cells as usize,
+            ))?;
+            start += cells;
+            byte += len as usize;
+        }
+        loose(&self.loose_lens[head..], f)
     }
 
     /// Hand the stored sets (ascending object indices) to `f` one at a
-    /// time, in cell order, without expanding them all.
+    /// time, in cell order, without expanding them all (one block is
+    /// decoded at a time).
     pub fn for_each_set(&self, f: &mut dyn FnMut(&[u32]) -> Result<()>) -> Result<()> {
-        let mut set = Vec::new();
-        let mut at = 0;
-        for &len in &self.set_lens {
-            set.clear();
-            let bytes = &self.set_runs[at..at + len as usize];
-            decode_runs(bytes, |o| set.push(o))
-                .ok_or_else(|| Error::format("a stored visible set is malformed"))?;
-            at += len as usize;
-            f(&set)?;
-        }
-        Ok(())
+        let n = self.object_ids.len() as u32;
+        let input_of_rank = crate::pvs::object_ranks(&self.object_prints, Vec::new());
+        let (mut ranks, mut visible) = (Vec::new(), Vec::new());
+        self.for_each_piece(&mut |piece| match piece {
+            Piece::Set(set) => f(set),
+            Piece::Block(bytes, cells) => {
+                let bad =
+                    |e: String| Error::format(format!("a stored block of cells is malformed: {e}"));
+                let mut state = BlockDecoder::new(bytes, n, BLOCK_CELLS).map_err(bad)?;
+                for _ in 0..cells {
+                    state.next(&mut ranks).map_err(bad)?;
+                    visible.clear();
+                    visible.extend(ranks.iter().map(|&r| input_of_rank[r as usize]));
+                    visible.sort_unstable();
+                    f(&visible)?;
+                }
+                Ok(())
+            }
+        })
+    }
+
+    /// Push the stored sets into `w`, which is at this part's first cell:
+    /// whole blocks as they are (the writer decodes and checks them), the
+    /// others one set at a time.
+    fn write_into(&self, w: &mut PvsWriter) -> Result<()> {
+        self.for_each_piece(&mut |piece| match piece {
+            Piece::Set(set) => w.push_cell(set),
+            Piece::Block(bytes, _) => w.push_block(bytes),
+        })
+        .map_err(|e| e.context(format!("shard {} of {}", self.shard, self.shards)))
     }
 
     /// The stored sets, ascending object indices (checked when decoded).
     pub fn sets(&self) -> Vec<Vec<u32>> {
-        let mut out = Vec::with_capacity(self.set_lens.len());
+        let mut out = Vec::with_capacity(self.done());
         self.for_each_set(&mut |s| {
             out.push(s.to_vec());
             Ok(())
         })
-        .expect("sets are checked when decoded or built by push_set");
+        .expect("sets are checked when decoded or coded by PartBuilder");
         out
+    }
+
+    /// Keep only the sets of the first `cells` cells.
+    pub fn truncate_sets(&mut self, cells: usize) -> Result<()> {
+        let mut sets = Vec::with_capacity(cells);
+        self.for_each_set(&mut |s| {
+            if sets.len() < cells {
+                sets.push(s.to_vec());
+            }
+            Ok(())
+        })?;
+        for v in [&mut self.block_lens, &mut self.loose_lens] {
+            v.clear();
+        }
+        for v in [&mut self.blocks, &mut self.loose_runs] {
+            v.clear();
+        }
+        let mut builder = PartBuilder::new(self.clone())?;
+        for set in &sets {
+            builder.push(set);
+        }
+        *self = builder.into_part();
+        Ok(())
     }
 
     /// The triangles of the range's cells.
@@ -481,25 +580,57 @@ impl Part {
         if self.cells.iter().flatten().any(|v| !v.is_finite()) {
             return bad("a cell triangle has a non-finite coordinate".into());
         }
-        if self.done() > n || (self.kind == PartKind::Shard && self.done() != n) {
+        if !self.object_ids.is_empty() && self.object_prints.len() != self.object_ids.len() {
+            return bad("no object fingerprints, which number the objects in the blocks".into());
+        }
+        let head = self.head_len();
+        let loose = self.loose_lens.len();
+        let blocks = self.block_lens.len() as u64;
+        if blocks > 0 && loose < head {
             return bad(format!(
-                "{} visible sets for a range of {n} cells",
-                self.done()
+                "{blocks} blocks after only {loose} of the {head} cells before the first block"
             ));
         }
-        let total: u64 = self.set_lens.iter().map(|&l| l as u64).sum();
-        if total != self.set_runs.len() as u64 {
+        // The whole blocks inside the range: those of BLOCK_CELLS cells,
+        // and the short last block of the bake when the range ends there.
+        let b = u64::from(BLOCK_CELLS);
+        let start = self.blocks_start();
+        let rest = self.range_end - start;
+        let short_last = self.range_end == self.total_cells && !rest.is_multiple_of(b);
+        let whole = rest / b + u64::from(short_last);
+        if blocks > whole {
+            return bad(format!("{blocks} blocks in a range that holds {whole}"));
+        }
+        let done = self.done();
+        let tail = loose.saturating_sub(head) as u64;
+        let open = start + blocks * b;
+        if tail > 0 && (open >= self.total_cells || tail >= self.block_cells_at(open)) {
+            return bad(format!("{tail} cells after the last whole block"));
+        }
+        if done > n || (self.kind == PartKind::Shard && done != n) {
+            return bad(format!("{done} visible sets for a range of {n} cells"));
+        }
+        let total: u64 = self.block_lens.iter().map(|&l| l as u64).sum();
+        if total != self.blocks.len() as u64 {
+            return bad(format!(
+                "the block lengths add up to {total} bytes, but {} are stored",
+                self.blocks.len()
+            ));
+        }
+        let total: u64 = self.loose_lens.iter().map(|&l| l as u64).sum();
+        if total != self.loose_runs.len() as u64 {
             return bad(format!(
                 "the set lengths add up to {total} bytes, but {} are stored",
-                self.set_runs.len()
+                self.loose_runs.len()
             ));
         }
         let objects = self.object_ids.len() as u64;
         let mut at = 0;
-        for (c, &len) in self.set_lens.iter().enumerate() {
-            let cell = self.range_start + c as u64;
+        for (c, &len) in self.loose_lens.iter().enumerate() {
+            let in_blocks = if c < head { 0 } else { (done - loose) as u64 };
+            let cell = self.range_start + c as u64 + in_blocks;
             let mut top = None;
-            let bytes = &self.set_runs[at..at + len as usize];
+            let bytes = &self.loose_runs[at..at + len as usize];
             // Members only ever grow, so checking the last one of each run
             // suffices; stop at the first one out of range.
             let mut at_run = 0usize;
@@ -529,13 +660,150 @@ impl Part {
     }
 }
 
+/// A stretch of a part's stored sets.
+enum Piece<'a> {
+    /// One cell's set, ascending object indices.
+    Set(&'a [u32]),
+    /// A whole block's bytes and its number of cells.
+    Block(&'a [u8], usize),
+}
+
+/// Write the `.pvs` file of the cells of `parts`, which tile the bake's
+/// cells in order (a whole bake's one part, or a merge's shards), to
+/// `path` atomically. The whole blocks are copied (after the writer has
+/// decoded them: a damaged one is refused); the cells of the blocks that
+/// straddle two parts are coded here, so the file is byte for byte the one
+/// a writer given every set writes.
+pub fn write_parts(path: &std::path::Path, parts: &[&Part]) -> Result<WriteStats> {
+    let Some(first) = parts.first() else {
+        return Err(Error::usage("no parts to write"));
+    };
+    let run = || -> Result<(Vec<u8>, WriteStats)> {
+        let mut w = PvsWriter::with_prints(
+            first.bake_info(),
+            first.object_ids.clone(),
+            first.object_prints.clone(),
+            Vec::new(),
+            parts.iter().flat_map(|p| p.triangles()).collect(),
+        )?;
+        for part in parts {
+            part.write_into(&mut w)?;
+        }
+        w.finish()
+    };
+    let (bytes, stats) = run().map_err(|e| e.context(path.display()))?;
+    crate::atomic::write_atomically(path, &bytes)?;
+    Ok(stats)
+}
+
+/// Adds finished cells' sets to a part in cell order, coding each whole
+/// block of the `.pvs` file as soon as its last cell comes: what a bake
+/// holds of its finished cells is then about the size of the file's
+/// blocks, not of the sets (docs/DESIGN.md, "Finished cells").
+pub struct PartBuilder {
+    part: Part,
+    /// Spatial rank of each object index (the file's numbering).
+    rank_of: Vec<u32>,
+    /// The open block's cells (the part's tail), coded so far.
+    block: BlockEncoder,
+    ranks: Vec<u32>,
+}
+
+impl PartBuilder {
+    /// Go on filling `part` (empty, or a checkpoint's prefix).
+    pub fn new(part: Part) -> Result<PartBuilder> {
+        let n = part.object_ids.len();
+        if n > 0 && part.object_prints.len() != n {
+            return Err(Error::format(
+                "a part's sets are coded in the file's numbering, which needs every object's fingerprint",
+            ));
+        }
+        let mut rank_of = vec![0u32; n];
+        for (r, &i) in crate::pvs::object_ranks(&part.object_prints, Vec::new())
+            .iter()
+            .enumerate()
+        {
+            rank_of[i as usize] = r as u32;
+        }
+        let mut builder = PartBuilder {
+            block: BlockEncoder::new(n as u32, BLOCK_CELLS),
+            part,
+            rank_of,
+            ranks: Vec::new(),
+        };
+        // The tail's cells were coded into the open block before the
+        // checkpoint was saved; code them again (a block's bytes depend only
+        // on its cells' sets). The loose sets after the head are the tail.
+        let head = builder.part.head_len();
+        let mut tail = Vec::new();
+        let mut loose = 0;
+        builder.part.for_each_piece(&mut |piece| {
+            if let Piece::Set(set) = piece {
+                if loose >= head {
+                    tail.push(set.to_vec());
+                }
+                loose += 1;
+            }
+            Ok(())
+        })?;
+        for set in &tail {
+            builder.code(set);
+        }
+        Ok(builder)
+    }
+
+    /// The part as it stands (to save it as a checkpoint).
+    pub fn part(&self) -> &Part {
+        &self.part
+    }
+
+    /// The part, with every set pushed so far.
+    pub fn into_part(self) -> Part {
+        self.part
+    }
+
+    /// Add the set (ascending object indices) of the range's next cell.
+    pub fn push(&mut self, set: &[u32]) {
+        let p = &mut self.part;
+        let k = p.done();
+        assert!(k < p.range_len(), "more sets than the range's cells");
+        let (lens, runs) = pack_sets(std::iter::once(set));
+        p.loose_lens.extend(lens);
+        p.loose_runs.extend(runs);
+        if k < p.head_len() {
+            return;
+        }
+        self.code(set);
+        let cell = self.part.range_start + k as u64 + 1;
+        if cell.is_multiple_of(u64::from(BLOCK_CELLS)) || cell == self.part.total_cells {
+            let bytes = self.block.finish();
+            let p = &mut self.part;
+            let head = p.head_len();
+            let keep: usize = p.loose_lens[..head].iter().map(|&l| l as usize).sum();
+            p.loose_lens.truncate(head);
+            p.loose_runs.truncate(keep);
+            p.block_lens.push(bytes.len() as u32);
+            p.blocks.extend_from_slice(&bytes);
+        }
+    }
+
+    /// Code a tail cell's set into the open block.
+    fn code(&mut self, set: &[u32]) {
+        self.ranks.clear();
+        self.ranks
+            .extend(set.iter().map(|&i| self.rank_of[i as usize]));
+        self.ranks.sort_unstable();
+        self.block.push(&self.ranks);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    fn part() -> Part {
-        let sets: Vec<Vec<u32>> = vec![vec![0, 2, 5], vec![], vec![1]];
-        let (set_lens, set_runs) = pack_sets(sets.iter().map(|s| s.as_slice()));
+    /// A part of shard `k` of `n` over `range` of `total` cells, with
+    /// `objects` objects and no sets.
+    fn blank(total: u64, range: std::ops::Range<u64>, objects: u32, k: u32, n: u32) -> Part {
         Part {
             kind: PartKind::Shard,
             key: BakeKey::of([7; 32], &Settings::default()),
@@ -543,17 +811,58 @@ mod tests {
                 lon0: 24.9,
                 lat0: 60.1,
             },
-            shard: 1,
-            shards: 3,
-            total_cells: 9,
-            range_start: 3,
-            range_end: 6,
-            object_ids: (0..6).map(|i| format!("b{i}")).collect(),
-            object_prints: Vec::new(),
-            cells: vec![[0.0, 0.0, 1.0, 0.0, 0.0, 1.0]; 3],
-            set_lens,
-            set_runs,
+            shard: k,
+            shards: n,
+            total_cells: total,
+            range_start: range.start,
+            range_end: range.end,
+            object_ids: (0..objects).map(|i| format!("b{i}")).collect(),
+            object_prints: (0..objects)
+                .map(|i| {
+                    let (x, y) = (f64::from(i * 37 % 101) * 3.0, f64::from(i * 11 % 53) * 2.0);
+                    crate::pvs::prints::ObjectPrint {
+                        object: u64::from(i) + 1,
+                        block: 0,
+                        rect: [x, y, x + 5.0, y + 4.0],
+                    }
+                })
+                .collect(),
+            cells: range
+                .map(|c| {
+                    let x = c as f64;
+                    [x, 0.0, x + 1.0, 0.0, x, 1.0]
+                })
+                .collect(),
+            block_lens: Vec::new(),
+            blocks: Vec::new(),
+            loose_lens: Vec::new(),
+            loose_runs: Vec::new(),
         }
+    }
+
+    /// `blank` filled with `sets` by a [`PartBuilder`].
+    fn filled(blank: Part, sets: &[Vec<u32>]) -> Part {
+        let mut b = PartBuilder::new(blank).unwrap();
+        for s in sets {
+            b.push(s);
+        }
+        b.into_part()
+    }
+
+    /// Sets of `cells` cells over `objects` objects, changing slowly from
+    /// cell to cell as neighbouring cells' sets do.
+    fn some_sets(cells: u64, objects: u32) -> Vec<Vec<u32>> {
+        (0..cells)
+            .map(|c| {
+                (0..objects)
+                    .filter(|&o| (u64::from(o) * 7 + c / 5 + (c * u64::from(o)) / 97) % 5 < 2)
+                    .collect()
+            })
+            .collect()
+    }
+
+    fn part() -> Part {
+        filled(blank(9, 3..6, 6, 1, 3), &[vec![0, 2, 5], vec![], vec![1]])
     }
 
     #[test]
@@ -592,7 +901,7 @@ mod tests {
         assert!(err.to_string().contains("corrupted"), "{err}");
         // A well-formed file with an object index out of range.
         let mut p = part();
-        p.set_runs[2] = 9;
+        p.loose_runs[2] = 9;
         let err = Part::decode(&p.encode().unwrap()).unwrap_err();
         assert!(err.to_string().contains("holds object"), "{err}");
     }
@@ -628,5 +937,106 @@ mod tests {
         let err = Part::decode(&bytes).unwrap_err();
         assert_eq!(err.kind(), &crate::ErrorKind::Format, "{err}");
         assert!(err.to_string().contains("LimitExceeded"), "{err}");
+    }
+
+    #[test]
+    fn parts_with_whole_blocks_write_the_file_of_one_writer() {
+        let (total, objects) = (1300u64, 90u32);
+        let sets = some_sets(total, objects);
+        let cells: Vec<[glam::DVec2; 3]> = blank(total, 0..total, objects, 0, 1).triangles();
+        let whole = blank(total, 0..total, objects, 0, 1);
+        let data = crate::pvs::PvsData {
+            info: whole.bake_info(),
+            object_ids: whole.object_ids.clone(),
+            object_prints: whole.object_prints.clone(),
+            cells,
+            visible: sets.clone(),
+        };
+        let (expected, _) = crate::pvs::encode_pvs(&data).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        // One part; shards whose borders fall inside blocks, on a block
+        // boundary, and inside the short last block.
+        for bounds in [
+            vec![0, 1300],
+            vec![0, 300, 1100, 1300],
+            vec![0, 512, 1024, 1300],
+            vec![0, 1030, 1040, 1300],
+            vec![0, 10, 20, 1300],
+        ] {
+            let n = bounds.len() as u32 - 1;
+            let parts: Vec<Part> = bounds
+                .windows(2)
+                .enumerate()
+                .map(|(k, w)| {
+                    let p = filled(
+                        blank(total, w[0]..w[1], objects, k as u32, n),
+                        &sets[w[0] as usize..w[1] as usize],
+                    );
+                    // Read back from its bytes, with the same sets.
+                    let q = Part::decode(&p.encode().unwrap()).unwrap();
+                    assert_eq!(q.sets(), sets[w[0] as usize..w[1] as usize], "{bounds:?}");
+                    q
+                })
+                .collect();
+            assert!(parts.iter().map(|p| p.block_lens.len()).sum::<usize>() > 0);
+            let path = dir.path().join("out.pvs");
+            let refs: Vec<&Part> = parts.iter().collect();
+            write_parts(&path, &refs).unwrap();
+            assert!(std::fs::read(&path).unwrap() == expected, "{bounds:?}");
+        }
+    }
+
+    #[test]
+    fn a_checkpoint_goes_on_to_the_same_part() {
+        let (total, objects) = (1300u64, 50u32);
+        let sets = some_sets(total, objects);
+        let range = 300..1100;
+        let full = filled(blank(total, range.clone(), objects, 1, 3), &sets[300..1100]);
+        // Cut inside the head, inside the block, just after it, in the tail.
+        for done in [0usize, 100, 212, 500, 724, 730, 799] {
+            let mut cp = full.clone();
+            cp.kind = PartKind::Checkpoint;
+            cp.truncate_sets(done).unwrap();
+            let cp = Part::decode(&cp.encode().unwrap()).unwrap();
+            assert_eq!(cp.done(), done);
+            assert_eq!(cp.sets(), sets[300..300 + done]);
+            let mut b = PartBuilder::new(cp).unwrap();
+            for s in &sets[300 + done..1100] {
+                b.push(s);
+            }
+            let mut resumed = b.into_part();
+            resumed.kind = PartKind::Shard;
+            assert_eq!(resumed.encode().unwrap(), full.encode().unwrap(), "{done}");
+        }
+    }
+
+    #[test]
+    fn a_damaged_block_is_refused_when_written() {
+        let (total, objects) = (1300u64, 50u32);
+        let sets = some_sets(total, objects);
+        let mut p = filled(blank(total, 0..total, objects, 0, 1), &sets);
+        let cut = 3;
+        let len = p.block_lens[0] as usize;
+        p.blocks.drain(len - cut..len);
+        p.block_lens[0] -= cut as u32;
+        // The lengths agree, so the part reads; its block does not decode.
+        let p = Part::decode(&p.encode().unwrap()).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("out.pvs");
+        let err = write_parts(&path, &[&p]).unwrap_err();
+        assert!(err.to_string().contains("out.pvs"), "{err}");
+        assert!(!path.exists());
+        // A tail as long as its block is not a part this code writes.
+        let mut q = filled(blank(total, 0..1100, objects, 0, 2), &sets[..1100]);
+        q.kind = PartKind::Checkpoint;
+        q.truncate_sets(1000).unwrap();
+        let (lens, runs) = pack_sets(sets[1000..1024].iter().map(|s| s.as_slice()));
+        q.loose_lens.extend(lens);
+        q.loose_runs.extend(runs);
+        let err = Part::decode(&q.encode().unwrap()).unwrap_err();
+        assert!(
+            err.to_string().contains("after the last whole block"),
+            "{err}"
+        );
     }
 }

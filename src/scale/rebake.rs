@@ -402,12 +402,12 @@ pub fn rebake_all(
         Rebake::Sources(sources) => sources,
         Rebake::Full(why) => return Ok((None, RebakeStats::full(cells, why))),
     };
-    let mut part = crate::scale::resume::empty_part(
+    let mut part = crate::scale::part::PartBuilder::new(crate::scale::resume::empty_part(
         scene,
         crate::scale::part::PartKind::Shard,
         crate::scale::shard::ShardSpec { k: 0, n: 1 },
         0..cells,
-    );
+    ))?;
     let mut tally = crate::bake::SetTally::default();
     let mut reader = OldSets::new(old, &new_of_old);
     for source in sources {
@@ -415,7 +415,7 @@ pub fn rebake_all(
             CellSource::Copied(oc) => reader.set(oc)?,
             CellSource::Solved(set) => set,
         };
-        part.push_set(&set);
+        part.push(&set);
         tally.add(&set);
     }
     let solve = SolveStats {
@@ -424,7 +424,7 @@ pub fn rebake_all(
     };
     Ok((
         Some(crate::scale::resume::RangeBake {
-            part,
+            part: part.into_part(),
             stats: tally.stats(scene.city.buildings.len(), &solve),
             timing: crate::prepare::StageTime {
                 stage: "visibility",

@@ -14,7 +14,7 @@ use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-use super::part::{BakeKey, FrameRecord, Part, PartKind};
+use super::part::{BakeKey, FrameRecord, Part, PartBuilder, PartKind};
 use super::shard::ShardSpec;
 use crate::Result;
 use crate::bake::{BakeStats, SetTally};
@@ -57,8 +57,10 @@ pub fn empty_part(scene: &Scene, kind: PartKind, spec: ShardSpec, range: Range<u
             .iter()
             .map(|t| [t[0].x, t[0].y, t[1].x, t[1].y, t[2].x, t[2].y])
             .collect(),
-        set_lens: Vec::new(),
-        set_runs: Vec::new(),
+        block_lens: Vec::new(),
+        blocks: Vec::new(),
+        loose_lens: Vec::new(),
+        loose_runs: Vec::new(),
     }
 }
 
@@ -121,6 +123,7 @@ pub fn bake_range(
     })?;
     progress(from_checkpoint as u64);
 
+    let mut part = PartBuilder::new(part)?;
     let todo = range.start + from_checkpoint..range.end;
     // Chunks end at the 5 % marks (counted from where this run starts) and
     // are sized from the measured pace to take about CHUNK_SECONDS, so a
@@ -149,7 +152,7 @@ pub fn bake_range(
     let mut written = 0;
     let mut solve = engine.solve_cells_paced(todo.clone(), next_chunk, progress, |cell, set| {
         tally.add(&set);
-        part.push_set(&set);
+        part.push(&set);
         since_save.set(since_save.get() + 1);
         let chunk_done = cell + 1 == chunk_end.get();
         let finished = cell + 1 == todo.end;
@@ -157,7 +160,7 @@ pub fn bake_range(
             && !finished
             && (since_save.get() >= step || last_save.get().elapsed() >= CHECKPOINT_INTERVAL)
         {
-            part.write(&cp_path)?;
+            part.part().write(&cp_path)?;
             written += 1;
             since_save.set(0);
             last_save.set(Instant::now());
@@ -166,6 +169,7 @@ pub fn bake_range(
     })?;
     // The sample count of the whole range, however much was resumed.
     solve.samples = engine.sample_count(range);
+    let mut part = part.into_part();
     part.kind = PartKind::Shard;
     Ok(RangeBake {
         stats: tally.stats(scene.city.buildings.len(), &solve),

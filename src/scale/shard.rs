@@ -1,7 +1,7 @@
 //! Shards: which shard a process bakes (`K/N` or `auto/N` from the batch
 //! system's environment), how the cells are split into N contiguous ranges
 //! of the Morton order with about equal sample counts, and how finished
-//! shards are checked and merged into the `.pvs` data one whole bake makes.
+//! shards are checked and merged into the `.pvs` file one whole bake writes.
 
 use std::collections::BTreeMap;
 use std::ops::Range;
@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 
 use super::part::{Part, PartKind};
 use crate::error::{Error, Result};
-use crate::pvs::PvsData;
+use crate::pvs::WriteStats;
 
 /// The environment variables `--shard auto/N` reads K from, first set wins:
 /// Kubernetes Indexed Jobs, Slurm job arrays, anything else.
@@ -143,10 +143,18 @@ pub fn default_shard_path(city_stem: &str, spec: ShardSpec) -> PathBuf {
     PathBuf::from(format!("{city_stem}.shard-{}-of-{}", spec.k, spec.n))
 }
 
-/// Read, check and merge finished shards into the data of one whole bake.
-/// Refuses (naming the files) shards of different bakes, a missing shard, a
-/// shard given twice, a checkpoint, or a truncated or corrupted file.
-pub fn merge_shards(paths: &[PathBuf]) -> Result<PvsData> {
+/// What [`merge_shards`] wrote.
+pub struct Merged {
+    pub cells: usize,
+    pub objects: usize,
+    pub write: WriteStats,
+}
+
+/// Read and check finished shards and write the `.pvs` file of the whole
+/// bake to `output` (nothing is written when a check fails). Refuses
+/// (naming the files) shards of different bakes, a missing shard, a shard
+/// given twice, a checkpoint, or a truncated or corrupted file.
+pub fn merge_shards(paths: &[PathBuf], output: &Path) -> Result<Merged> {
     if paths.is_empty() {
         return Err(Error::usage("merge needs at least one shard file"));
     }
@@ -217,8 +225,6 @@ pub fn merge_shards(paths: &[PathBuf]) -> Result<PvsData> {
         )));
     }
     let mut next = 0u64;
-    let mut cells = Vec::with_capacity(f.total_cells.min(1 << 24) as usize);
-    let mut visible = Vec::with_capacity(f.total_cells.min(1 << 24) as usize);
     for (path, part) in parts.values() {
         if part.range_start != next {
             return Err(Error::mismatch(format!(
@@ -230,8 +236,6 @@ pub fn merge_shards(paths: &[PathBuf]) -> Result<PvsData> {
             )));
         }
         next = part.range_end;
-        cells.extend(part.triangles());
-        visible.extend(part.sets());
     }
     if next != f.total_cells {
         return Err(Error::mismatch(format!(
@@ -239,12 +243,12 @@ pub fn merge_shards(paths: &[PathBuf]) -> Result<PvsData> {
             f.total_cells
         )));
     }
-    Ok(PvsData {
-        info: f.bake_info(),
-        object_ids: f.object_ids.clone(),
-        object_prints: f.object_prints.clone(),
-        cells,
-        visible,
+    let ordered: Vec<&Part> = parts.values().map(|(_, part)| part).collect();
+    let write = super::part::write_parts(output, &ordered)?;
+    Ok(Merged {
+        cells: f.total_cells as usize,
+        objects: f.object_ids.len(),
+        write,
     })
 }
 
