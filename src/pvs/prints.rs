@@ -137,6 +137,17 @@ fn rect_numbers(rect: &[f64; 4]) -> [i64; 4] {
     ]
 }
 
+/// Whether the file can store `rect`: finite, min <= max on both axes, and
+/// every grid number within 2^52 (docs/FORMAT.md, "Objects").
+pub fn rect_storable(rect: &[f64; 4]) -> bool {
+    rect.iter().all(|v| v.is_finite())
+        && rect[0] <= rect[2]
+        && rect[1] <= rect[3]
+        && rect_numbers(rect)
+            .iter()
+            .all(|g| g.abs() <= MAX_GRID_NUMBER)
+}
+
 /// The rectangle a file stores for `rect`: the footprint's rectangle
 /// rounded outwards to the 1/256 m grid (so it still holds the footprint).
 pub fn stored_rect(rect: &[f64; 4]) -> [f64; 4] {

@@ -249,6 +249,15 @@ impl PvsWriter {
                 object_points.len()
             )));
         }
+        if let Some(k) = object_prints
+            .iter()
+            .position(|p| !super::prints::rect_storable(&p.rect))
+        {
+            return Err(Error::format(format!(
+                "object {k}'s rectangle {:?} cannot be stored (not finite, inverted, or beyond 2^52 grid steps)",
+                object_prints[k].rect
+            )));
+        }
         if let Some(k) = object_points.iter().position(|p| !p.is_finite()) {
             return Err(Error::format(format!("object {k} has a non-finite point")));
         }

@@ -583,6 +583,15 @@ impl Part {
         if !self.object_ids.is_empty() && self.object_prints.len() != self.object_ids.len() {
             return bad("no object fingerprints, which number the objects in the blocks".into());
         }
+        if let Some(k) = self
+            .object_prints
+            .iter()
+            .position(|p| !crate::pvs::prints::rect_storable(&p.rect))
+        {
+            return bad(format!(
+                "object {k}'s fingerprint rectangle cannot be stored"
+            ));
+        }
         let head = self.head_len();
         let loose = self.loose_lens.len();
         let blocks = self.block_lens.len() as u64;
@@ -675,25 +684,27 @@ enum Piece<'a> {
 /// straddle two parts are coded here, so the file is byte for byte the one
 /// a writer given every set writes.
 pub fn write_parts(path: &std::path::Path, parts: &[&Part]) -> Result<WriteStats> {
+    let (bytes, stats) = encode_parts(parts).map_err(|e| e.context(path.display()))?;
+    crate::atomic::write_atomically(path, &bytes)?;
+    Ok(stats)
+}
+
+/// The bytes [`write_parts`] writes.
+pub fn encode_parts(parts: &[&Part]) -> Result<(Vec<u8>, WriteStats)> {
     let Some(first) = parts.first() else {
         return Err(Error::usage("no parts to write"));
     };
-    let run = || -> Result<(Vec<u8>, WriteStats)> {
-        let mut w = PvsWriter::with_prints(
-            first.bake_info(),
-            first.object_ids.clone(),
-            first.object_prints.clone(),
-            Vec::new(),
-            parts.iter().flat_map(|p| p.triangles()).collect(),
-        )?;
-        for part in parts {
-            part.write_into(&mut w)?;
-        }
-        w.finish()
-    };
-    let (bytes, stats) = run().map_err(|e| e.context(path.display()))?;
-    crate::atomic::write_atomically(path, &bytes)?;
-    Ok(stats)
+    let mut w = PvsWriter::with_prints(
+        first.bake_info(),
+        first.object_ids.clone(),
+        first.object_prints.clone(),
+        Vec::new(),
+        parts.iter().flat_map(|p| p.triangles()).collect(),
+    )?;
+    for part in parts {
+        part.write_into(&mut w)?;
+    }
+    w.finish()
 }
 
 /// Adds finished cells' sets to a part in cell order, coding each whole
@@ -904,6 +915,13 @@ mod tests {
         p.loose_runs[2] = 9;
         let err = Part::decode(&p.encode().unwrap()).unwrap_err();
         assert!(err.to_string().contains("holds object"), "{err}");
+        // A fingerprint rectangle the file could not store.
+        for bad in [f64::NAN, 1e300, -1.0] {
+            let mut p = part();
+            p.object_prints[2].rect[2] = bad;
+            let err = Part::decode(&p.encode().unwrap()).unwrap_err();
+            assert!(err.to_string().contains("rectangle"), "{bad}: {err}");
+        }
     }
 
     #[test]
