@@ -145,7 +145,7 @@ pub fn rect_storable(rect: &[f64; 4]) -> bool {
         && rect[1] <= rect[3]
         && rect_numbers(rect)
             .iter()
-            .all(|g| g.abs() <= MAX_GRID_NUMBER)
+            .all(|g| g.unsigned_abs() <= MAX_GRID_NUMBER as u64)
 }
 
 /// The rectangle a file stores for `rect`: the footprint's rectangle

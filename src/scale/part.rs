@@ -916,9 +916,9 @@ mod tests {
         let err = Part::decode(&p.encode().unwrap()).unwrap_err();
         assert!(err.to_string().contains("holds object"), "{err}");
         // A fingerprint rectangle the file could not store.
-        for bad in [f64::NAN, 1e300, -1.0] {
+        for (at, bad) in [(2, f64::NAN), (2, 1e300), (0, -1e300), (2, -1.0)] {
             let mut p = part();
-            p.object_prints[2].rect[2] = bad;
+            p.object_prints[2].rect[at] = bad;
             let err = Part::decode(&p.encode().unwrap()).unwrap_err();
             assert!(err.to_string().contains("rectangle"), "{bad}: {err}");
         }
