@@ -32,7 +32,7 @@ fn exercise(bytes: &[u8]) {
     if read.is_ok() {
         assert_eq!(cells, part.done(), "sets handed out");
     }
-    let _ = encode_parts(&[&part]);
+    let _ = encode_parts(&part, &[&part]);
     // Going on from it as a checkpoint, with every cell left seeing nothing.
     if let Ok(mut builder) = PartBuilder::new(part.clone()) {
         for _ in part.done()..part.range_len() {
@@ -40,7 +40,7 @@ fn exercise(bytes: &[u8]) {
         }
         let done = builder.into_part();
         assert_eq!(done.done(), done.range_len(), "every cell has a set");
-        let _ = encode_parts(&[&done]);
+        let _ = encode_parts(&done, &[&done]);
     }
 }
 

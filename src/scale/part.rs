@@ -679,25 +679,24 @@ enum Piece<'a> {
 
 /// Write the `.pvs` file of the cells of `parts`, which tile the bake's
 /// cells in order (a whole bake's one part, or a merge's shards), to
-/// `path` atomically. The whole blocks are copied (after the writer has
+/// `path` atomically; the header, the object ids and fingerprints are
+/// those of `head` (a part of the same bake: a merge keeps them in one
+/// shard only). The whole blocks are copied (after the writer has
 /// decoded them: a damaged one is refused); the cells of the blocks that
 /// straddle two parts are coded here, so the file is byte for byte the one
 /// a writer given every set writes.
-pub fn write_parts(path: &std::path::Path, parts: &[&Part]) -> Result<WriteStats> {
-    let (bytes, stats) = encode_parts(parts).map_err(|e| e.context(path.display()))?;
+pub fn write_parts(path: &std::path::Path, head: &Part, parts: &[&Part]) -> Result<WriteStats> {
+    let (bytes, stats) = encode_parts(head, parts).map_err(|e| e.context(path.display()))?;
     crate::atomic::write_atomically(path, &bytes)?;
     Ok(stats)
 }
 
 /// The bytes [`write_parts`] writes.
-pub fn encode_parts(parts: &[&Part]) -> Result<(Vec<u8>, WriteStats)> {
-    let Some(first) = parts.first() else {
-        return Err(Error::usage("no parts to write"));
-    };
+pub fn encode_parts(head: &Part, parts: &[&Part]) -> Result<(Vec<u8>, WriteStats)> {
     let mut w = PvsWriter::with_prints(
-        first.bake_info(),
-        first.object_ids.clone(),
-        first.object_prints.clone(),
+        head.bake_info(),
+        head.object_ids.clone(),
+        head.object_prints.clone(),
         Vec::new(),
         parts.iter().flat_map(|p| p.triangles()).collect(),
     )?;
@@ -999,7 +998,7 @@ mod tests {
             assert!(parts.iter().map(|p| p.block_lens.len()).sum::<usize>() > 0);
             let path = dir.path().join("out.pvs");
             let refs: Vec<&Part> = parts.iter().collect();
-            write_parts(&path, &refs).unwrap();
+            write_parts(&path, refs[0], &refs).unwrap();
             assert!(std::fs::read(&path).unwrap() == expected, "{bounds:?}");
         }
     }
@@ -1041,7 +1040,7 @@ mod tests {
         let p = Part::decode(&p.encode().unwrap()).unwrap();
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("out.pvs");
-        let err = write_parts(&path, &[&p]).unwrap_err();
+        let err = write_parts(&path, &p, &[&p]).unwrap_err();
         assert!(err.to_string().contains("out.pvs"), "{err}");
         assert!(!path.exists());
         // A tail as long as its block is not a part this code writes.

@@ -158,17 +158,20 @@ pub fn merge_shards(paths: &[PathBuf], output: &Path) -> Result<Merged> {
     if paths.is_empty() {
         return Err(Error::usage("merge needs at least one shard file"));
     }
-    let mut parts: BTreeMap<u32, (&Path, Part)> = BTreeMap::new();
-    let mut first: Option<(&Path, Part)> = None;
+    // Every shard carries the whole object list; the first one read keeps
+    // it, the others drop theirs once it is found equal (N copies of a
+    // 100,000-building city's ids and fingerprints are some 8 MB each).
+    let mut read: Vec<(&Path, Part)> = Vec::with_capacity(paths.len());
+    let mut parts: BTreeMap<u32, usize> = BTreeMap::new();
     for path in paths {
-        let part = Part::read(path)?;
+        let mut part = Part::read(path)?;
         if part.kind != PartKind::Shard {
             return Err(Error::format(format!(
                 "{}: is a checkpoint of an unfinished bake, not a shard; run the same bake command again to finish it",
                 path.display()
             )));
         }
-        if let Some((p0, f)) = &first {
+        if let Some((p0, f)) = read.first() {
             let keys = f.key.differences(&part.key);
             let mut what: Vec<&str> = keys;
             if f.shards != part.shards {
@@ -191,21 +194,22 @@ pub fn merge_shards(paths: &[PathBuf], output: &Path) -> Result<Merged> {
                     what.join(", ")
                 )));
             }
-        } else {
-            first = Some((path, part.clone()));
+            part.object_ids = Vec::new();
+            part.object_prints = Vec::new();
         }
-        if let Some((other, _)) = parts.get(&part.shard) {
+        if let Some(&other) = parts.get(&part.shard) {
             return Err(Error::mismatch(format!(
                 "shard {} of {} is given twice: {} and {}",
                 part.shard,
                 part.shards,
-                other.display(),
+                read[other].0.display(),
                 path.display()
             )));
         }
-        parts.insert(part.shard, (path, part));
+        parts.insert(part.shard, read.len());
+        read.push((path, part));
     }
-    let (_, f) = first.expect("at least one part");
+    let f = &read[0].1;
     let n = f.shards;
     let missing: Vec<String> = (0..n)
         .filter(|k| !parts.contains_key(k))
@@ -225,7 +229,8 @@ pub fn merge_shards(paths: &[PathBuf], output: &Path) -> Result<Merged> {
         )));
     }
     let mut next = 0u64;
-    for (path, part) in parts.values() {
+    for &i in parts.values() {
+        let (path, part) = &read[i];
         if part.range_start != next {
             return Err(Error::mismatch(format!(
                 "{}: shard {} of {n} covers cells {}..{}, but the shards before it end at cell {next}",
@@ -243,8 +248,8 @@ pub fn merge_shards(paths: &[PathBuf], output: &Path) -> Result<Merged> {
             f.total_cells
         )));
     }
-    let ordered: Vec<&Part> = parts.values().map(|(_, part)| part).collect();
-    let write = super::part::write_parts(output, &ordered)?;
+    let ordered: Vec<&Part> = parts.values().map(|&i| &read[i].1).collect();
+    let write = super::part::write_parts(output, f, &ordered)?;
     Ok(Merged {
         cells: f.total_cells as usize,
         objects: f.object_ids.len(),
