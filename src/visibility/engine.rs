@@ -592,25 +592,37 @@ impl<'a> VisibilityEngine<'a> {
     ) -> Vec<Vec<u32>> {
         let mut out = Vec::with_capacity(cells.len());
         for (chunk, wanted) in cells.chunks(CHUNK_CELLS).zip(wanted.chunks(CHUNK_CELLS)) {
-            let mut of: HashMap<UnitId, WantedObjects> = HashMap::new();
-            for (&c, w) in chunk.iter().zip(wanted) {
+            // Each unit wants what its cells of the chunk want. The lists
+            // are joined one unit at a time, so that only the deduplicated
+            // ones are held (joined all at once before deduplication they
+            // took 38 MB on a one-building edit of the 10,000-building city).
+            let mut cells_of: HashMap<UnitId, Vec<usize>> = HashMap::new();
+            for (k, &c) in chunk.iter().enumerate() {
                 for u in self.cell_units(c) {
-                    let entry = of.entry(u).or_default();
-                    entry.everywhere.extend(&w.everywhere);
-                    entry.where_changed.extend(&w.where_changed);
+                    cells_of.entry(u).or_default().push(k);
                 }
             }
-            let mut units: Vec<(UnitId, WantedObjects)> = of
+            let mut units: Vec<(UnitId, WantedObjects)> = cells_of
                 .into_iter()
-                .map(|(u, mut w)| {
-                    w.everywhere.sort_unstable();
-                    w.everywhere.dedup();
-                    w.where_changed.sort_unstable();
-                    w.where_changed.dedup();
-                    let everywhere = &w.everywhere;
-                    w.where_changed
-                        .retain(|o| everywhere.binary_search(o).is_err());
-                    (u, w)
+                .map(|(u, ks)| {
+                    let joined = |list: fn(&WantedObjects) -> &Vec<u32>| {
+                        let mut all: Vec<u32> =
+                            ks.iter().flat_map(|&k| list(&wanted[k]).iter().copied()).collect();
+                        all.sort_unstable();
+                        all.dedup();
+                        all.shrink_to_fit();
+                        all
+                    };
+                    let everywhere = joined(|w| &w.everywhere);
+                    let mut where_changed = joined(|w| &w.where_changed);
+                    where_changed.retain(|o| everywhere.binary_search(o).is_err());
+                    (
+                        u,
+                        WantedObjects {
+                            everywhere,
+                            where_changed,
+                        },
+                    )
                 })
                 .collect();
             units.sort_unstable_by_key(|(u, _)| *u);
