@@ -606,8 +606,10 @@ impl<'a> VisibilityEngine<'a> {
                 .into_iter()
                 .map(|(u, ks)| {
                     let joined = |list: fn(&WantedObjects) -> &Vec<u32>| {
-                        let mut all: Vec<u32> =
-                            ks.iter().flat_map(|&k| list(&wanted[k]).iter().copied()).collect();
+                        let mut all: Vec<u32> = ks
+                            .iter()
+                            .flat_map(|&k| list(&wanted[k]).iter().copied())
+                            .collect();
                         all.sort_unstable();
                         all.dedup();
                         all.shrink_to_fit();
