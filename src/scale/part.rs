@@ -3,7 +3,9 @@
 //! input's SHA-256, every bake setting, the tool version, the frame, the
 //! object ids, K, N, the total cell count and the cell range with its
 //! triangles) and the visible sets of a prefix of the range (all of it for a
-//! finished shard). Layout (docs/scale-out.md):
+//! finished shard), whole blocks already in the `.pvs` file's coding
+//! ([`PartBuilder`] fills a part, [`write_parts`] writes the file of parts
+//! that tile a bake). Layout (docs/scale-out.md):
 //!
 //! ```text
 //! magic "CPVSPART" | version u32 LE | reserved u32 | payload length u64 LE
