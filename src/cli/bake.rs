@@ -240,7 +240,7 @@ fn run_in_pool(args: &BakeArgs, threads: usize) -> Result<i32> {
             ..Default::default()
         }
     } else {
-        crate::scale::part::write_parts(&output, &baked.part, &[&baked.part])?
+        baked.part.write_pvs(&output)?
     };
     remove_checkpoint(&output)?;
     timings.push(StageTime {

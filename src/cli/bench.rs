@@ -241,7 +241,7 @@ pub fn run(args: &BenchArgs) -> Result<i32> {
             )
         })?;
         let bake_seconds = t.elapsed().as_secs_f64();
-        let written = crate::scale::part::write_parts(&output, &baked.part, &[&baked.part])?;
+        let written = baked.part.write_pvs(&output)?;
         remove_checkpoint(&output)?;
         let stats = baked.stats;
         let cells = stats.cells.max(1) as f64;

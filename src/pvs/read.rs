@@ -222,31 +222,8 @@ impl PvsReader {
         }
         Ok(())
     }
-    /// Map ascending spatial ranks to ascending input indices in `out`,
-    /// through the bitset `marks` (kept all zero between calls).
     fn to_input(&self, ranks: &[u32], marks: &mut Vec<u64>, out: &mut Vec<u32>) {
-        out.clear();
-        let words = self.parsed.object_ids.len().div_ceil(64);
-        if marks.len() != words {
-            marks.clear();
-            marks.resize(words, 0);
-        }
-        if ranks.len() < words {
-            out.extend(ranks.iter().map(|&r| self.parsed.input_of_rank[r as usize]));
-            out.sort_unstable();
-            return;
-        }
-        for &r in ranks {
-            let i = self.parsed.input_of_rank[r as usize];
-            marks[i as usize / 64] |= 1 << (i % 64);
-        }
-        for (k, word) in marks.iter_mut().enumerate() {
-            let mut w = std::mem::take(word);
-            while w != 0 {
-                out.push((k * 64) as u32 + w.trailing_zeros());
-                w &= w - 1;
-            }
-        }
+        ranks_to_input(ranks, &self.parsed.input_of_rank, marks, out);
     }
     /// The index in block `b` (which holds a cell) of its last cell.
     fn last_in_block(&self, b: usize) -> usize {
@@ -259,29 +236,19 @@ impl PvsReader {
         &self,
         b: usize,
         last: usize,
-        mut f: impl FnMut(usize, &[u32], u8) -> Result<()>,
+        f: impl FnMut(usize, &[u32], u8) -> Result<()>,
     ) -> Result<()> {
-        let bytes = self.block(b);
-        let n = self.parsed.object_ids.len() as u32;
-        let first = b * self.parsed.block_cells;
-        let mut state = BlockDecoder::new(bytes, n, self.parsed.block_cells as u32)
-            .map_err(|e| Error::format(format!("visible set of cell {first}: {e}")))?;
-        let mut set = Vec::new();
-        for k in 0..=last {
-            let cell = first + k;
-            let refs = state
-                .next(&mut set)
-                .map_err(|e| Error::format(format!("visible set of cell {cell}: {e}")))?;
-            f(cell, &set, refs)?;
-        }
-        let whole = first + last + 1 == self.cell_count() || last + 1 == self.parsed.block_cells;
-        if whole && state.pos() != bytes.len() {
-            return Err(Error::format(format!(
-                "block {b} has {} bytes after its last cell",
-                bytes.len() - state.pos()
-            )));
-        }
-        Ok(())
+        let whole = (b * self.parsed.block_cells + last + 1 == self.cell_count())
+            || last + 1 == self.parsed.block_cells;
+        decode_block(
+            self.block(b),
+            self.parsed.object_ids.len() as u32,
+            self.parsed.block_cells,
+            b,
+            last,
+            whole,
+            f,
+        )
     }
     /// Ascending input object indices visible from the cell; reads only the
     /// cell's block.
@@ -575,4 +542,70 @@ fn parse(body: &[u8]) -> Result<Parsed> {
         index_at,
         blocks_at,
     })
+}
+
+/// Map ascending spatial ranks to ascending input indices in `out` (the
+/// input index of rank r is `input_of_rank[r]`), through the bitset
+/// `marks` (kept all zero between calls) when the set is large.
+pub(crate) fn ranks_to_input(
+    ranks: &[u32],
+    input_of_rank: &[u32],
+    marks: &mut Vec<u64>,
+    out: &mut Vec<u32>,
+) {
+    out.clear();
+    let words = input_of_rank.len().div_ceil(64);
+    if marks.len() != words {
+        marks.clear();
+        marks.resize(words, 0);
+    }
+    if ranks.len() < words {
+        out.extend(ranks.iter().map(|&r| input_of_rank[r as usize]));
+        out.sort_unstable();
+        return;
+    }
+    for &r in ranks {
+        let i = input_of_rank[r as usize];
+        marks[i as usize / 64] |= 1 << (i % 64);
+    }
+    for (k, word) in marks.iter_mut().enumerate() {
+        let mut w = std::mem::take(word);
+        while w != 0 {
+            out.push((k * 64) as u32 + w.trailing_zeros());
+            w &= w - 1;
+        }
+    }
+}
+
+/// Decode block `b` (its `bytes`; blocks of `block_cells` cells, sets of
+/// ranks below `n`) up to and including its cell `last`, calling
+/// `f(cell, ranks, references)` for each; with `whole`, the block must end
+/// right after cell `last`. Errors name the cell or the block.
+pub(crate) fn decode_block(
+    bytes: &[u8],
+    n: u32,
+    block_cells: usize,
+    b: usize,
+    last: usize,
+    whole: bool,
+    mut f: impl FnMut(usize, &[u32], u8) -> Result<()>,
+) -> Result<()> {
+    let first = b * block_cells;
+    let mut state = BlockDecoder::new(bytes, n, block_cells as u32)
+        .map_err(|e| Error::format(format!("visible set of cell {first}: {e}")))?;
+    let mut set = Vec::new();
+    for k in 0..=last {
+        let cell = first + k;
+        let refs = state
+            .next(&mut set)
+            .map_err(|e| Error::format(format!("visible set of cell {cell}: {e}")))?;
+        f(cell, &set, refs)?;
+    }
+    if whole && state.pos() != bytes.len() {
+        return Err(Error::format(format!(
+            "block {b} has {} bytes after its last cell",
+            bytes.len() - state.pos()
+        )));
+    }
+    Ok(())
 }

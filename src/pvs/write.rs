@@ -11,8 +11,9 @@ use glam::DVec2;
 use super::prints::ObjectPrint;
 use sha2::{Digest, Sha256};
 
-use super::blocks::{BlockDecoder, BlockEncoder};
+use super::blocks::BlockEncoder;
 use super::codec::{bitset_len, write_leb128, zero_rle_len};
+use super::read::ranks_to_input;
 use super::{BLOCK_CELLS, BakeInfo, FORMAT_VERSION, HEADER_BYTES, MAGIC, PvsData, WriteStats};
 use crate::frame::Frame;
 use crate::{Error, Result};
@@ -384,7 +385,13 @@ impl PvsWriter {
             .extend(visible.iter().map(|&i| self.rank_of[i as usize]));
         self.cur.sort_unstable();
         let refs = self.block.push(&self.cur);
-        self.count_cell(visible, refs);
+        count_cell(
+            &mut self.stats,
+            &mut self.coding_counts,
+            self.object_count,
+            visible,
+            refs,
+        );
         self.pushed += 1;
         if self.pushed.is_multiple_of(self.block_cells) || self.pushed == self.cell_count {
             let bytes = self.block.finish();
@@ -413,36 +420,29 @@ impl PvsWriter {
                 self.cell_count
             )));
         }
-        let bad =
-            |cell: usize, e: String| Error::format(format!("visible set of cell {cell}: {e}"));
-        let mut state = BlockDecoder::new(bytes, self.object_count, self.block_cells as u32)
-            .map_err(|e| bad(first, e))?;
-        let (mut ranks, mut visible) = (Vec::new(), Vec::new());
-        for k in 0..cells {
-            let refs = state.next(&mut ranks).map_err(|e| bad(first + k, e))?;
-            visible.clear();
-            visible.extend(ranks.iter().map(|&r| self.input_of_rank[r as usize]));
-            visible.sort_unstable();
-            self.count_cell(&visible, refs);
-        }
-        if state.pos() != bytes.len() {
-            return Err(Error::format(format!(
-                "the block of cells {first} to {} has {} bytes after its last cell",
-                first + cells - 1,
-                bytes.len() - state.pos()
-            )));
-        }
+        let (mut marks, mut visible) = (Vec::new(), Vec::new());
+        super::read::decode_block(
+            bytes,
+            self.object_count,
+            self.block_cells,
+            first / self.block_cells,
+            cells - 1,
+            true,
+            |_, ranks, refs| {
+                ranks_to_input(ranks, &self.input_of_rank, &mut marks, &mut visible);
+                count_cell(
+                    &mut self.stats,
+                    &mut self.coding_counts,
+                    self.object_count,
+                    &visible,
+                    refs,
+                );
+                Ok(())
+            },
+        )?;
         self.pushed += cells;
         self.close_block(bytes);
         Ok(())
-    }
-
-    /// Count a coded cell's set (ascending input indices) in the statistics.
-    fn count_cell(&mut self, visible: &[u32], refs: u8) {
-        let n = self.object_count as usize;
-        self.stats.raw_bitset_bytes += bitset_len(n) as u64;
-        self.stats.rle_bitset_bytes += zero_rle_len(visible, n);
-        self.coding_counts[refs as usize] += 1;
     }
 
     /// Append a finished block's bytes and its end in the block index.
@@ -483,6 +483,21 @@ impl PvsWriter {
         crate::atomic::write_atomically(path, &bytes)?;
         Ok(stats)
     }
+}
+
+/// Count a coded cell's set (ascending input indices among `n` objects,
+/// coded with `refs` references) in the statistics.
+fn count_cell(
+    stats: &mut WriteStats,
+    coding_counts: &mut [u64; 3],
+    n: u32,
+    visible: &[u32],
+    refs: u8,
+) {
+    let n = n as usize;
+    stats.raw_bitset_bytes += bitset_len(n) as u64;
+    stats.rle_bitset_bytes += zero_rle_len(visible, n);
+    coding_counts[refs as usize] += 1;
 }
 
 /// A representative point per object when the caller has none: the mean

@@ -24,7 +24,7 @@ use sha2::{Digest, Sha256};
 
 use crate::error::{Error, Result};
 use crate::input::Frame;
-use crate::pvs::blocks::{BlockDecoder, BlockEncoder};
+use crate::pvs::blocks::BlockEncoder;
 use crate::pvs::{BLOCK_CELLS, BakeInfo, PvsWriter, WriteStats};
 use crate::settings::{BakeNumbers, Settings};
 
@@ -321,6 +321,7 @@ impl Part {
             let cells = self.block_cells_at(start);
             f(Piece::Block(
                 &self.blocks[byte..byte + len as usize],
+                (start / u64::from(BLOCK_CELLS)) as usize,
                 cells as usize,
             ))?;
             start += cells;
@@ -335,23 +336,28 @@ impl Part {
     pub fn for_each_set(&self, f: &mut dyn FnMut(&[u32]) -> Result<()>) -> Result<()> {
         let n = self.object_ids.len() as u32;
         let input_of_rank = crate::pvs::object_ranks(&self.object_prints, Vec::new());
-        let (mut ranks, mut visible) = (Vec::new(), Vec::new());
+        let (mut marks, mut visible) = (Vec::new(), Vec::new());
         self.for_each_piece(&mut |piece| match piece {
             Piece::Set(set) => f(set),
-            Piece::Block(bytes, cells) => {
-                let bad =
-                    |e: String| Error::format(format!("a stored block of cells is malformed: {e}"));
-                let mut state = BlockDecoder::new(bytes, n, BLOCK_CELLS).map_err(bad)?;
-                for _ in 0..cells {
-                    state.next(&mut ranks).map_err(bad)?;
-                    visible.clear();
-                    visible.extend(ranks.iter().map(|&r| input_of_rank[r as usize]));
-                    visible.sort_unstable();
-                    f(&visible)?;
-                }
-                Ok(())
-            }
+            Piece::Block(bytes, block, cells) => crate::pvs::decode_block(
+                bytes,
+                n,
+                BLOCK_CELLS as usize,
+                block,
+                cells - 1,
+                true,
+                |_, ranks, _| {
+                    crate::pvs::ranks_to_input(ranks, &input_of_rank, &mut marks, &mut visible);
+                    f(&visible)
+                },
+            ),
         })
+    }
+
+    /// Write the `.pvs` file of a part that covers every cell of its bake
+    /// (a whole bake's, not a shard's): [`write_parts`] of it alone.
+    pub fn write_pvs(&self, path: &std::path::Path) -> Result<WriteStats> {
+        write_parts(path, self, &[self])
     }
 
     /// Push the stored sets into `w`, which is at this part's first cell:
@@ -360,7 +366,7 @@ impl Part {
     fn write_into(&self, w: &mut PvsWriter) -> Result<()> {
         self.for_each_piece(&mut |piece| match piece {
             Piece::Set(set) => w.push_cell(set),
-            Piece::Block(bytes, _) => w.push_block(bytes),
+            Piece::Block(bytes, _, _) => w.push_block(bytes),
         })
         .map_err(|e| e.context(format!("shard {} of {}", self.shard, self.shards)))
     }
@@ -675,8 +681,9 @@ impl Part {
 enum Piece<'a> {
     /// One cell's set, ascending object indices.
     Set(&'a [u32]),
-    /// A whole block's bytes and its number of cells.
-    Block(&'a [u8], usize),
+    /// A whole block's bytes, its number in the file and its number of
+    /// cells.
+    Block(&'a [u8], usize, usize),
 }
 
 /// Write the `.pvs` file of the cells of `parts`, which tile the bake's
