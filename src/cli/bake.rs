@@ -185,9 +185,18 @@ fn run_in_pool(args: &BakeArgs, threads: usize) -> Result<i32> {
 
     let engine = crate::visibility::VisibilityEngine::new(&scene)?;
     let cells = scene.cells.triangles.len();
+    let mut timings = scene.timings.clone();
     let (spec, range) = match shard {
         Some((spec, _)) => {
-            let ranges = crate::scale::shard::split(&engine.cell_costs(), spec.n);
+            let t = Instant::now();
+            let ranges = crate::scale::shard::split(
+                &crate::scale::shard::shard_costs(&engine, spec.n),
+                spec.n,
+            );
+            timings.push(StageTime {
+                stage: "split",
+                seconds: t.elapsed().as_secs_f64(),
+            });
             (spec, ranges[spec.k].clone())
         }
         None => (ShardSpec { k: 0, n: 1 }, 0..cells),
@@ -229,7 +238,6 @@ fn run_in_pool(args: &BakeArgs, threads: usize) -> Result<i32> {
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
-    let mut timings = scene.timings.clone();
     timings.push(baked.timing.clone());
 
     let t = Instant::now();

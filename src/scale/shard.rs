@@ -1,6 +1,7 @@
 //! Shards: which shard a process bakes (`K/N` or `auto/N` from the batch
 //! system's environment), how the cells are split into N contiguous ranges
-//! of the Morton order with about equal sample counts, and how finished
+//! of the Morton order with about equal estimated work (samples, weighted
+//! by what probe points nearby see), and how finished
 //! shards are checked and merged into the `.pvs` file one whole bake writes.
 
 use std::collections::BTreeMap;
@@ -10,6 +11,7 @@ use std::path::{Path, PathBuf};
 use super::part::{Part, PartKind};
 use crate::error::{Error, Result};
 use crate::pvs::WriteStats;
+use crate::visibility::VisibilityEngine;
 
 /// The environment variables `--shard auto/N` reads K from, first set wins:
 /// Kubernetes Indexed Jobs, Slurm job arrays, anything else.
@@ -107,6 +109,49 @@ fn check_k(k: usize, n: usize, what: &str) -> Result<()> {
         )));
     }
     Ok(())
+}
+
+/// Probe points per shard for [`shard_costs`], and the fewest and most in
+/// all.
+pub const PROBES_PER_SHARD: usize = 32;
+pub const MIN_PROBES: usize = 256;
+pub const MAX_PROBES: usize = 2048;
+
+/// Each cell's estimated cost, for splitting the cells into `n` shards that
+/// take about equally long: its share of the samples (see
+/// [`VisibilityEngine::cell_costs`]) times one more than the number of
+/// objects seen from a probe near it in cell order. The cells are cut into
+/// as many stretches as there are probes, and the first corner of each
+/// stretch's middle cell is solved in full; the cost of a sample grows with
+/// what it sees (docs/DESIGN.md, "Where the time goes as cities grow"), and
+/// cells near the city's open edges see more than others. The probes'
+/// counts are a function of the scene, so every shard process computes the
+/// same costs, and the split decides only which process solves a cell:
+/// the merged file is the same for any split.
+pub fn shard_costs(engine: &VisibilityEngine, n: usize) -> Vec<usize> {
+    let samples = engine.cell_costs();
+    let cells = samples.len();
+    if n <= 1 || cells == 0 {
+        return samples;
+    }
+    let probes = (PROBES_PER_SHARD.saturating_mul(n))
+        .clamp(MIN_PROBES, MAX_PROBES)
+        .min(cells);
+    let stretch = |j: usize| j * cells / probes..(j + 1) * cells / probes;
+    let probe_cells: Vec<usize> = (0..probes)
+        .map(|j| {
+            let r = stretch(j);
+            r.start + r.len() / 2
+        })
+        .collect();
+    let seen = engine.corner_visible_counts(&probe_cells);
+    let mut costs = samples;
+    for (j, &count) in seen.iter().enumerate() {
+        for cost in &mut costs[stretch(j)] {
+            *cost = cost.saturating_mul(count + 1);
+        }
+    }
+    costs
 }
 
 /// Split cells with the given costs into `n` contiguous ranges (in cell

@@ -314,8 +314,9 @@ impl<'a> VisibilityEngine<'a> {
 
     /// Each cell's share of the samples: the samples of the units (corners
     /// and edges) the cell is the first in cell order to use. The sum over
-    /// cells `0..i` is `sample_count(0..i)`; a cost estimate for splitting
-    /// the cells into ranges of about equal work.
+    /// cells `0..i` is `sample_count(0..i)`; the samples factor of the
+    /// cost estimate that splits the cells into shards
+    /// (`scale::shard::shard_costs`).
     pub fn cell_costs(&self) -> Vec<usize> {
         let mut seen = vec![false; self.vertex_count() + self.topo.edges.len()];
         (0..self.cells.len())
@@ -326,6 +327,24 @@ impl<'a> VisibilityEngine<'a> {
                     .map(|u| self.unit_sample_count(u))
                     .sum()
             })
+            .collect()
+    }
+
+    /// How many objects the first corner of each of `cells` sees: that
+    /// one point solved in full, in parallel (a unit's set is a function of
+    /// its points and the scene, so the counts are the same for any thread
+    /// count). An estimate of how costly the cells around it are to solve.
+    pub fn corner_visible_counts(&self, cells: &[usize]) -> Vec<usize> {
+        cells
+            .par_iter()
+            .map_init(
+                || (self.solver(), ObjectSet::new(self.objects)),
+                |(solver, scratch), &cell| {
+                    let corner = self.topo.cell_vertices[cell][0];
+                    self.solve_unit(solver, scratch, corner, &[]);
+                    scratch.count()
+                },
+            )
             .collect()
     }
 

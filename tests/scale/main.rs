@@ -3,6 +3,9 @@
 //! One test binary for the group (each file below is a module), so the
 //! suite links a few binaries instead of one per file.
 
+#[path = "../common/mod.rs"]
+mod common;
+mod scale_balance;
 mod scale_diff;
 mod scale_rebake;
 mod scale_recipes;

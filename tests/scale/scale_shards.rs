@@ -90,16 +90,13 @@ fn four_shard_processes_at_once_merge_into_the_bytes_of_one_bake() {
         ));
         samples.push(s["samples"].as_u64().unwrap());
     }
-    // Contiguous ranges covering the cells, with about equal sample counts.
+    // Contiguous ranges covering the cells, none without samples (the
+    // balance of the work is tested in `scale_balance`).
     assert_eq!(ranges[0].0, 0);
     for w in ranges.windows(2) {
         assert_eq!(w[0].1, w[1].0);
     }
-    let (lo, hi) = (
-        *samples.iter().min().unwrap() as f64,
-        *samples.iter().max().unwrap() as f64,
-    );
-    assert!(hi < 1.5 * lo, "unbalanced shards: {samples:?}");
+    assert!(samples.iter().all(|&s| s > 0), "{samples:?}");
     let merged = ok(
         d,
         &[
