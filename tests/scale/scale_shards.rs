@@ -84,6 +84,14 @@ fn four_shard_processes_at_once_merge_into_the_bytes_of_one_bake() {
         let s: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
         assert_eq!(s["shard"], format!("{k}/4"));
         assert_eq!(s["output"], format!("city.shard-{k}-of-4"));
+        // The probes of the split are timed as a stage of their own.
+        let stages: Vec<&str> = s["timings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|t| t["stage"].as_str().unwrap())
+            .collect();
+        assert!(stages.contains(&"split"), "{stages:?}");
         ranges.push((
             s["cell_range"][0].as_u64().unwrap(),
             s["cell_range"][1].as_u64().unwrap(),
