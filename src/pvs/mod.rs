@@ -33,6 +33,7 @@ pub use write::{
     EachSet, PvsWriter, encode_pvs, encode_pvs_with_points, object_ranks, points_from_sets,
     spatial_ranks, write_pvs, write_pvs_with_points, write_streamed,
 };
+pub(crate) use write::{rank_of_input, set_ranks};
 
 /// The bake parameters and provenance stored in the header.
 #[derive(Clone, Debug, PartialEq)]

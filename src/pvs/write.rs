@@ -134,6 +134,24 @@ pub fn object_ranks(prints: &[ObjectPrint], points: Vec<DVec2>) -> Vec<u32> {
     spatial_ranks(&numbering_points(prints, points))
 }
 
+/// The spatial rank of each input object index, from the input index of
+/// each rank (as [`object_ranks`] gives it).
+pub(crate) fn rank_of_input(input_of_rank: &[u32]) -> Vec<u32> {
+    let mut rank_of = vec![0u32; input_of_rank.len()];
+    for (r, &i) in input_of_rank.iter().enumerate() {
+        rank_of[i as usize] = r as u32;
+    }
+    rank_of
+}
+
+/// A set of input object indices as the block coder takes it: their ranks
+/// (`rank_of[i]`), ascending, in `out`.
+pub(crate) fn set_ranks(set: &[u32], rank_of: &[u32], out: &mut Vec<u32>) {
+    out.clear();
+    out.extend(set.iter().map(|&i| rank_of[i as usize]));
+    out.sort_unstable();
+}
+
 /// The point the numbering uses for each object: the centre of its stored
 /// rectangle when the file has the fingerprint list, else `points`.
 fn numbering_points(prints: &[ObjectPrint], points: Vec<DVec2>) -> Vec<DVec2> {
@@ -270,10 +288,7 @@ impl PvsWriter {
             }
         }
         let input_of_rank = object_ranks(&object_prints, object_points);
-        let mut rank_of = vec![0u32; n];
-        for (r, &i) in input_of_rank.iter().enumerate() {
-            rank_of[i as usize] = r as u32;
-        }
+        let rank_of = rank_of_input(&input_of_rank);
 
         // Vertices in order of first use, corners as back-references.
         let (vertices, corners) = super::mesh::index_mesh(&cells);
@@ -380,10 +395,7 @@ impl PvsWriter {
                 self.object_count
             )));
         }
-        self.cur.clear();
-        self.cur
-            .extend(visible.iter().map(|&i| self.rank_of[i as usize]));
-        self.cur.sort_unstable();
+        set_ranks(visible, &self.rank_of, &mut self.cur);
         let refs = self.block.push(&self.cur);
         count_cell(
             &mut self.stats,

@@ -737,13 +737,8 @@ impl PartBuilder {
                 "a part's sets are coded in the file's numbering, which needs every object's fingerprint",
             ));
         }
-        let mut rank_of = vec![0u32; n];
-        for (r, &i) in crate::pvs::object_ranks(&part.object_prints, Vec::new())
-            .iter()
-            .enumerate()
-        {
-            rank_of[i as usize] = r as u32;
-        }
+        let rank_of =
+            crate::pvs::rank_of_input(&crate::pvs::object_ranks(&part.object_prints, Vec::new()));
         let mut builder = PartBuilder {
             block: BlockEncoder::new(n as u32, BLOCK_CELLS),
             part,
@@ -808,10 +803,7 @@ impl PartBuilder {
 
     /// Code a tail cell's set into the open block.
     fn code(&mut self, set: &[u32]) {
-        self.ranks.clear();
-        self.ranks
-            .extend(set.iter().map(|&i| self.rank_of[i as usize]));
-        self.ranks.sort_unstable();
+        crate::pvs::set_ranks(set, &self.rank_of, &mut self.ranks);
         self.block.push(&self.ranks);
     }
 }
