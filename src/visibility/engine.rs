@@ -27,9 +27,9 @@ use rayon::prelude::*;
 
 use super::bitset::ObjectSet;
 use super::horizon::{Cover, bins_overlap, covering_bins, rect_bins};
-use super::index::SceneIndex;
+use super::index::{ObjectRaster, SceneIndex};
 use super::samples::{MeshTopology, cell_sample_points};
-use super::solver::{Solver, rect_distance};
+use super::solver::{Solver, object_distance, rect_distance};
 use crate::error::{Error, Result};
 use crate::model::Rect;
 use crate::prepare::Scene;
@@ -585,7 +585,7 @@ impl<'a> VisibilityEngine<'a> {
                 }
                 stack.extend(&node.children);
                 for &o in &node.objects {
-                    if !marks.contains(o as usize) && dirs.holds(&index.objects[o as usize].rect) {
+                    if !marks.contains(o as usize) && dirs.holds(&index.objects[o as usize]) {
                         marks.insert(o as usize);
                     }
                 }
@@ -694,7 +694,8 @@ impl<'a> VisibilityEngine<'a> {
     ) -> Vec<u32> {
         let mut seen: Vec<u32> = Vec::new();
         let mut todo: Vec<u32> = Vec::new();
-        let rect = |o: u32| &self.index.objects[o as usize].rect;
+        let object = |o: u32| &self.index.objects[o as usize];
+        let rect = |o: u32| &object(o).rect;
         for p in self.unit_points(unit) {
             todo.clear();
             todo.extend(w.everywhere.iter().copied().filter(|o| !seen.contains(o)));
@@ -702,7 +703,7 @@ impl<'a> VisibilityEngine<'a> {
                 // A sample inside a changed rectangle tests them all.
                 let dirs = ChangeDirections::at(p, changed);
                 todo.extend(w.where_changed.iter().copied().filter(|&o| {
-                    !seen.contains(&o) && dirs.as_ref().is_none_or(|d| d.holds(rect(o)))
+                    !seen.contains(&o) && dirs.as_ref().is_none_or(|d| d.holds(object(o)))
                 }));
             }
             if todo.is_empty() {
@@ -884,16 +885,18 @@ impl ChangeDirections {
         Some(ChangeDirections { p, dirs })
     }
 
-    /// Whether an object with this rectangle lies farther than some changed
-    /// rectangle, in bins that meet its grown bins: only then can a chain
-    /// inside that rectangle be in the object's horizon and raise one of
-    /// the bins its test reads (a chain enters before an item only when it
-    /// is nearer, and raises only bins inside its rectangle's).
-    pub fn holds(&self, rect: &Rect) -> bool {
-        let Some(bins) = rect_bins(self.p, rect) else {
+    /// Whether an object lies farther than some changed rectangle (at the
+    /// distance its horizon test takes its slope at), in bins that meet
+    /// its grown bins (those of its rectangle, which hold the bins its test
+    /// reads): only then can a chain inside that rectangle be in the
+    /// object's horizon and raise one of the bins its test reads (a chain
+    /// enters before an item only when it is nearer, and raises only bins
+    /// inside its rectangle's).
+    pub fn holds(&self, object: &ObjectRaster) -> bool {
+        let Some(bins) = rect_bins(self.p, &object.rect) else {
             return true;
         };
-        let d = rect_distance(self.p, rect);
+        let (d, _) = object_distance(self.p, object);
         self.dirs
             .iter()
             .any(|&(a, b, near)| d > near && bins_overlap(bins, (a, b)))

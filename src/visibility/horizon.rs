@@ -537,6 +537,45 @@ impl RectView {
         }
     }
 
+    /// An object seen from `v` at height `eye`, up to `top`, by the convex
+    /// hull `hull` of its footprint (counter-clockwise, inside `rect`),
+    /// with its slope taken at `r`, the distance [`object_distance`] gives,
+    /// no greater than that of any point of the footprint. Its bins are
+    /// the hull's when `outside_hull` (the flag [`object_distance`] gives:
+    /// `v` is outside the hull by 1e-6 or more, and a convex polygon seen
+    /// from outside lies between its extreme vertices' directions), the
+    /// rectangle's otherwise.
+    pub fn of_object(
+        v: DVec2,
+        eye: f64,
+        (hull, rect): (&[DVec2], &Rect),
+        top: f64,
+        (r, outside_hull): (f64, bool),
+    ) -> Self {
+        let bins = if outside_hull {
+            hull_bins(v, hull)
+        } else {
+            None
+        };
+        let Some((lo, hi)) = bins.or_else(|| rect_bins(v, rect)) else {
+            return RectView {
+                bins: None,
+                need: f64::INFINITY,
+            };
+        };
+        let need = if top >= eye {
+            (top - eye) / r
+        } else {
+            // The farthest point of a polygon is a vertex of its hull.
+            let r_max = hull.iter().map(|c| c.distance(v)).fold(0.0, max_of);
+            (top - eye) / r_max
+        };
+        RectView {
+            bins: Some((lo as i32, hi as i32)),
+            need,
+        }
+    }
+
     /// The rectangle's bins, as [`rect_bins`] gives them.
     pub fn bins(&self) -> Option<(i64, i64)> {
         self.bins.map(|(lo, hi)| (i64::from(lo), i64::from(hi)))
@@ -602,6 +641,59 @@ fn bins_of(v: DVec2, rect: &Rect) -> (i64, i64) {
     let (lo, hi) = (bin_of(lo), bin_of(hi));
     let shift = lo.div_euclid(BINS as i64) * BINS as i64;
     (lo - shift, hi - shift)
+}
+
+/// The distance from `v` to the nearest point of an object whose
+/// footprint has the convex hull `hull` (counter-clockwise) and the
+/// bounding rectangle `rect`: the hull's distance when `v` lies outside
+/// it by 1e-6 or more (rounding cannot then put `v` on the wrong side of
+/// an edge), the rectangle's otherwise. Either is no greater than the
+/// distance to any point of the footprint. The flag says which: true for
+/// the hull's.
+pub fn object_distance(v: DVec2, hull: &[DVec2], rect: &Rect) -> (f64, bool) {
+    let n = hull.len();
+    let mut outside = false;
+    let mut d2 = f64::INFINITY;
+    for i in 0..n {
+        let (a, b) = (hull[i], hull[(i + 1) % n]);
+        outside |= (b - a).perp_dot(v - a) < 0.0;
+        d2 = min_of(d2, squared_distance_to_segment(v, a, b));
+    }
+    let d = d2.sqrt();
+    if n >= 3 && outside && d >= 1e-6 {
+        (d, true)
+    } else {
+        (v.clamp(rect.min, rect.max).distance(v), false)
+    }
+}
+
+/// The bins the directions from `v` to the convex polygon `hull` span, or
+/// `None` when they span half a turn or more. The vertices' pseudo-angles
+/// are unwrapped one after the other round the polygon; seen from inside
+/// they wind a whole turn, so a span under half a turn means `v` is
+/// outside, and a convex polygon seen from outside lies between its
+/// extreme vertices' directions.
+fn hull_bins(v: DVec2, hull: &[DVec2]) -> Option<(i64, i64)> {
+    let (&first, rest) = hull.split_first()?;
+    if rest.len() < 2 || first.distance_squared(v) == 0.0 {
+        return None;
+    }
+    let mut reference = unwrapped_angle(v, first, 0.0);
+    let (mut lo, mut hi) = (reference, reference);
+    for &p in rest {
+        if p.distance_squared(v) == 0.0 {
+            return None;
+        }
+        reference = unwrapped_angle(v, p, reference);
+        lo = min_of(lo, reference);
+        hi = max_of(hi, reference);
+    }
+    if hi - lo >= TURN / 2.0 {
+        return None;
+    }
+    let (lo, hi) = (bin_of(lo), bin_of(hi));
+    let shift = lo.div_euclid(BINS as i64) * BINS as i64;
+    Some((lo - shift, hi - shift))
 }
 
 /// The corners of `rect`, counter-clockwise from its minimum.

@@ -69,6 +69,10 @@ pub struct Span {
 pub struct ObjectRaster {
     pub height: f64,
     pub rect: Rect,
+    /// The convex hull of the footprint (counter-clockwise; its vertices
+    /// are footprint vertices, exact predicates): the horizon test's
+    /// directions and nearest distance ([`crate::visibility::horizon::RectView::of_hull`]).
+    pub hull: Vec<DVec2>,
     /// Every pixel the unshrunk footprint may overlap (a superset).
     pub spans: Vec<Span>,
 }
@@ -681,8 +685,35 @@ fn rasterise_object(building: &Building, grid: PixelGrid) -> ObjectRaster {
     ObjectRaster {
         height: building.height,
         rect,
+        hull: footprint_hull(building),
         spans,
     }
+}
+
+/// The convex hull of every exterior vertex of the footprint,
+/// counter-clockwise, found with exact orientation predicates (`geo`'s
+/// robust kernel), so every footprint point lies in it and its vertices
+/// are footprint vertices, bit for bit.
+fn footprint_hull(building: &Building) -> Vec<DVec2> {
+    use geo::ConvexHull;
+    let points: Vec<geo::Point<f64>> = building
+        .footprint
+        .iter()
+        .flat_map(|p| p.exterior.iter())
+        .map(|v| geo::Point::new(v.x, v.y))
+        .collect();
+    let hull = geo::MultiPoint::new(points).convex_hull();
+    let ring = &hull.exterior().0;
+    // geo closes the ring: the last point repeats the first.
+    let n = ring.len().saturating_sub(1);
+    let mut out: Vec<DVec2> = ring[..n].iter().map(|c| DVec2::new(c.x, c.y)).collect();
+    let twice_area: f64 = (0..out.len())
+        .map(|i| out[i].perp_dot(out[(i + 1) % out.len()]))
+        .sum();
+    if twice_area < 0.0 {
+        out.reverse();
+    }
+    out
 }
 
 fn build_pyramid(objects: &[ObjectRaster]) -> (Vec<PyramidNode>, Option<u32>) {

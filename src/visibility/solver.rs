@@ -258,7 +258,9 @@ impl ChainQueue {
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
 enum Item {
     Node(u32),
-    Object(u32),
+    /// An object, and whether it was queued at its hull's distance
+    /// ([`horizon::object_distance`]).
+    Object(u32, bool),
 }
 
 /// A non-negative distance as an orderable key (the bits of a non-negative
@@ -578,16 +580,16 @@ impl<'a> Solver<'a> {
                     }
                     for &o in &node.objects {
                         if !visible.contains(o as usize) {
-                            let d = rect_distance(v, &index.objects[o as usize].rect);
-                            self.queue.push(Reverse((key(d), Item::Object(o))));
+                            let (d, outside) = object_distance(v, &index.objects[o as usize]);
+                            self.queue.push(Reverse((key(d), Item::Object(o, outside))));
                         }
                     }
                 }
-                Item::Object(o) => {
+                Item::Object(o, outside) => {
                     if visible.contains(o as usize) {
                         continue;
                     }
-                    if !self.object_hidden(v, r, o, &window, &mut drawn) {
+                    if !self.object_hidden(v, (r, outside), o, &window, &mut drawn) {
                         visible.insert(o as usize);
                         self.refresh_remaining(index.object_leaf[o as usize], visible);
                     }
@@ -620,10 +622,23 @@ impl<'a> Solver<'a> {
     /// and the horizon over the whole rectangle then suffices.) So the
     /// verdict reads only the object, the horizon at its distance and the
     /// cull map, and a hidden pyramid node implies it for each object below.
-    fn object_hidden(&mut self, v: DVec2, r: f64, o: u32, window: &Rect, drawn: &mut bool) -> bool {
+    fn object_hidden(
+        &mut self,
+        v: DVec2,
+        (r, outside_hull): (f64, bool),
+        o: u32,
+        window: &Rect,
+        drawn: &mut bool,
+    ) -> bool {
         let index = self.index;
         let object = &index.objects[o as usize];
-        let view = RectView::new(v, self.eye, &object.rect, object.height);
+        let view = RectView::of_object(
+            v,
+            self.eye,
+            (&object.hull, &object.rect),
+            object.height,
+            (r, outside_hull),
+        );
         if !contains(window, &object.rect) {
             return self.hidden_by_chains_nearer(v, r, &view);
         }
@@ -1299,6 +1314,12 @@ fn add_ready_chains(
 
 /// Distance from `v` to the nearest point of `rect` (0 inside): the
 /// distance at which an item is tested, and chains nearer than it enter.
+/// The distance an object is queued at and its horizon test takes its
+/// slope at ([`horizon::object_distance`]).
+pub(crate) fn object_distance(v: DVec2, object: &super::index::ObjectRaster) -> (f64, bool) {
+    super::horizon::object_distance(v, &object.hull, &object.rect)
+}
+
 pub(crate) fn rect_distance(v: DVec2, rect: &Rect) -> f64 {
     v.clamp(rect.min, rect.max).distance(v)
 }
