@@ -827,6 +827,66 @@ mod tests {
         }
     }
 
+    proptest::proptest! {
+        /// An object's view by its footprint's hull holds the bin of every
+        /// point of the footprint, and its distance is no greater than any
+        /// of theirs, seen from anywhere (outside the hull, in the notch of
+        /// an L, inside the footprint); the hull's bins are never wider than
+        /// the rectangle's.
+        #[test]
+        fn an_object_s_view_holds_every_point_of_its_footprint(
+            vx in -120.0f64..120.0, vy in -120.0f64..120.0,
+            x in -60.0f64..60.0, y in -60.0f64..60.0,
+            w in 1.0f64..40.0, d in 1.0f64..40.0,
+            arm in 0.1f64..0.9, turn in 0.0f64..std::f64::consts::TAU,
+            tx in 0.0f64..=1.0, ty in 0.0f64..=1.0,
+        ) {
+            use crate::model::{Building, Polygon};
+            // An L of w x d with its arm cut at `arm`, turned by `turn`.
+            let (sin, cos) = turn.sin_cos();
+            let at = |a: f64, b: f64| DVec2::new(x + a * cos - b * sin, y + a * sin + b * cos);
+            let local = [(0.0, 0.0), (w, 0.0), (w, d * arm), (w * arm, d * arm), (w * arm, d), (0.0, d)];
+            let ring: Vec<DVec2> = local.iter().map(|&(a, b)| at(a, b)).collect();
+            let building = Building {
+                id: "l".into(),
+                footprint: vec![Polygon { exterior: ring.clone(), holes: Vec::new() }],
+                height: 10.0,
+                occludes: true,
+            };
+            let hull = crate::visibility::index::footprint_hull(&building);
+            let mut rect = Rect::EMPTY;
+            for p in &ring {
+                rect.include(*p);
+            }
+            let v = DVec2::new(vx, vy);
+            let (r, outside) = object_distance(v, &hull, &rect);
+            let view = RectView::of_object(v, 0.0, (&hull, &rect), 1.0, (r, outside));
+            let mut points = ring.clone();
+            for i in 0..ring.len() {
+                let (a, b) = (ring[i], ring[(i + 1) % ring.len()]);
+                points.push(a + (b - a) * tx);
+            }
+            // Points inside the L: in the full-width strip and in the arm.
+            points.push(at(w * tx, d * arm * ty));
+            points.push(at(w * arm * tx, d * ty));
+            for p in points {
+                let dist = p.distance(v);
+                proptest::prop_assert!(r <= dist + 1e-9, "{p:?} at {dist} nearer than {r}");
+                if dist > 1e-9 {
+                    let Some((lo, hi)) = view.bins() else { continue };
+                    let bin = bin_of(pseudo_angle(p - v));
+                    let held = (lo..=hi).contains(&bin)
+                        || (lo..=hi).contains(&(bin + BINS as i64))
+                        || (lo..=hi).contains(&(bin - BINS as i64));
+                    proptest::prop_assert!(held, "{p:?} (bin {bin}) outside {lo}..={hi} from {v:?}");
+                }
+            }
+            if let (Some((lo, hi)), Some((rlo, rhi))) = (view.bins(), rect_bins(v, &rect)) {
+                proptest::prop_assert!(hi - lo <= rhi - rlo);
+            }
+        }
+    }
+
     #[test]
     fn bin_ranges_meet_modulo_a_turn_however_far_they_are_unwrapped() {
         let n = BINS as i64;

@@ -694,7 +694,7 @@ fn rasterise_object(building: &Building, grid: PixelGrid) -> ObjectRaster {
 /// counter-clockwise, found with exact orientation predicates (`geo`'s
 /// robust kernel), so every footprint point lies in it and its vertices
 /// are footprint vertices, bit for bit.
-fn footprint_hull(building: &Building) -> Vec<DVec2> {
+pub(crate) fn footprint_hull(building: &Building) -> Vec<DVec2> {
     use geo::ConvexHull;
     let points: Vec<geo::Point<f64>> = building
         .footprint
