@@ -71,7 +71,8 @@ pub struct ObjectRaster {
     pub rect: Rect,
     /// The convex hull of the footprint (counter-clockwise; its vertices
     /// are footprint vertices, exact predicates): the horizon test's
-    /// directions and nearest distance ([`crate::visibility::horizon::RectView::of_hull`]).
+    /// directions and nearest distance ([`super::horizon::object_distance`],
+    /// [`super::horizon::RectView::of_object`]).
     pub hull: Vec<DVec2>,
     /// Every pixel the unshrunk footprint may overlap (a superset).
     pub spans: Vec<Span>,

@@ -615,11 +615,13 @@ impl<'a> Solver<'a> {
         }
     }
 
-    /// True when the object is hidden: by the horizon over its whole
-    /// rectangle (valid for any object, docs/METHOD.md §6), or, when it lies
-    /// wholly inside the window, pixel by pixel by the cull map. (An object
-    /// reaching out of the window needs the horizon for its outside part,
-    /// and the horizon over the whole rectangle then suffices.) So the
+    /// True when the object is hidden: by the horizon over the bins of its
+    /// hull (of its rectangle when `v` is inside the hull), at `r`, the
+    /// distance it was queued at ([`object_distance`]; valid for any
+    /// object, docs/METHOD.md §6), or, when it lies wholly inside the
+    /// window, pixel by pixel by the cull map. (An object reaching out of
+    /// the window needs the horizon for its outside part, and the horizon
+    /// over the whole object then suffices.) So the
     /// verdict reads only the object, the horizon at its distance and the
     /// cull map, and a hidden pyramid node implies it for each object below.
     fn object_hidden(
@@ -657,7 +659,7 @@ impl<'a> Solver<'a> {
     }
 
     /// Whether the horizon of the chains nearer than `r` (the distance of
-    /// the rectangle of `view`) hides that rectangle up to its top (both
+    /// the item of `view`) hides that item up to its top (both
     /// seen from `v`, found once per item). The horizon is first asked as it
     /// is: it holds some of those chains only (it is never grown past the
     /// distance of the item being tested, and items come nearest first),
