@@ -638,6 +638,12 @@ fn bins_of(v: DVec2, rect: &Rect) -> (i64, i64) {
         lo = lo.min(a);
         hi = hi.max(a);
     }
+    bins_between(lo, hi)
+}
+
+/// The bins holding the unwrapped pseudo-angles `lo..=hi`, shifted by
+/// whole turns so that the first lies in `0..BINS`.
+fn bins_between(lo: f64, hi: f64) -> (i64, i64) {
     let (lo, hi) = (bin_of(lo), bin_of(hi));
     let shift = lo.div_euclid(BINS as i64) * BINS as i64;
     (lo - shift, hi - shift)
@@ -691,9 +697,7 @@ fn hull_bins(v: DVec2, hull: &[DVec2]) -> Option<(i64, i64)> {
     if hi - lo >= TURN / 2.0 {
         return None;
     }
-    let (lo, hi) = (bin_of(lo), bin_of(hi));
-    let shift = lo.div_euclid(BINS as i64) * BINS as i64;
-    Some((lo - shift, hi - shift))
+    Some(bins_between(lo, hi))
 }
 
 /// The corners of `rect`, counter-clockwise from its minimum.
