@@ -566,8 +566,14 @@ impl RectView {
         let need = if top >= eye {
             (top - eye) / r
         } else {
-            // The farthest point of a polygon is a vertex of its hull.
-            let r_max = hull.iter().map(|c| c.distance(v)).fold(0.0, max_of);
+            // The farthest point of a polygon is a vertex of its hull (of
+            // its rectangle, too, which serves when there is no hull).
+            let far = if hull.len() >= 3 {
+                hull
+            } else {
+                &corners(rect)[..]
+            };
+            let r_max = far.iter().map(|c| c.distance(v)).fold(0.0, max_of);
             (top - eye) / r_max
         };
         RectView {
