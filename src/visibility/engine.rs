@@ -29,7 +29,7 @@ use super::bitset::ObjectSet;
 use super::horizon::{Cover, bins_overlap, covering_bins, rect_bins};
 use super::index::{ObjectRaster, SceneIndex};
 use super::samples::{MeshTopology, cell_sample_points};
-use super::solver::{Solver, object_distance, rect_distance};
+use super::solver::{Solver, rect_distance};
 use crate::error::{Error, Result};
 use crate::model::Rect;
 use crate::prepare::Scene;
@@ -896,7 +896,7 @@ impl ChangeDirections {
         let Some(bins) = rect_bins(self.p, &object.rect) else {
             return true;
         };
-        let (d, _) = object_distance(self.p, object);
+        let (d, _) = object.distance_from(self.p);
         self.dirs
             .iter()
             .any(|&(a, b, near)| d > near && bins_overlap(bins, (a, b)))

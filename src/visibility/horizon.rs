@@ -679,31 +679,22 @@ pub fn object_distance(v: DVec2, hull: &[DVec2], rect: &Rect) -> (f64, bool) {
     }
 }
 
-/// The bins the directions from `v` to the convex polygon `hull` span, or
-/// `None` when they span half a turn or more. The vertices' pseudo-angles
-/// are unwrapped one after the other round the polygon; seen from inside
-/// they wind a whole turn, so a span under half a turn means `v` is
-/// outside, and a convex polygon seen from outside lies between its
-/// extreme vertices' directions.
+/// The bins the directions from `v` to the convex polygon `hull` span, for
+/// `v` outside it by 1e-6 or more (as [`object_distance`] finds it), or
+/// `None` should they span half a turn or more. The vertices'
+/// pseudo-angles are unwrapped one after the other round the polygon (no
+/// edge subtends nearly half a turn from that far); a convex polygon seen
+/// from outside lies between its extreme vertices' directions.
 fn hull_bins(v: DVec2, hull: &[DVec2]) -> Option<(i64, i64)> {
     let (&first, rest) = hull.split_first()?;
-    if rest.len() < 2 || first.distance_squared(v) == 0.0 {
-        return None;
-    }
     let mut reference = unwrapped_angle(v, first, 0.0);
     let (mut lo, mut hi) = (reference, reference);
     for &p in rest {
-        if p.distance_squared(v) == 0.0 {
-            return None;
-        }
         reference = unwrapped_angle(v, p, reference);
         lo = min_of(lo, reference);
         hi = max_of(hi, reference);
     }
-    if hi - lo >= TURN / 2.0 {
-        return None;
-    }
-    Some(bins_between(lo, hi))
+    (hi - lo < TURN / 2.0).then(|| bins_between(lo, hi))
 }
 
 /// The corners of `rect`, counter-clockwise from its minimum.
@@ -835,9 +826,7 @@ mod tests {
                 proptest::prop_assert_eq!(mask.count_ones() as i64, sectors);
             }
         }
-    }
 
-    proptest::proptest! {
         /// An object's view by its footprint's hull holds the bin of every
         /// point of the footprint, and its distance is no greater than any
         /// of theirs, seen from anywhere (outside the hull, in the notch of

@@ -691,10 +691,10 @@ fn rasterise_object(building: &Building, grid: PixelGrid) -> ObjectRaster {
     }
 }
 
-/// The convex hull of every exterior vertex of the footprint,
-/// counter-clockwise, found with exact orientation predicates (`geo`'s
-/// robust kernel), so every footprint point lies in it and its vertices
-/// are footprint vertices, bit for bit.
+/// The convex hull of every exterior vertex of the footprint, found with
+/// exact orientation predicates (`geo`'s robust kernel), so every footprint
+/// point lies in it and its vertices are footprint vertices, bit for bit;
+/// `geo` gives it counter-clockwise.
 pub(crate) fn footprint_hull(building: &Building) -> Vec<DVec2> {
     use geo::ConvexHull;
     let points: Vec<geo::Point<f64>> = building
@@ -705,16 +705,18 @@ pub(crate) fn footprint_hull(building: &Building) -> Vec<DVec2> {
         .collect();
     let hull = geo::MultiPoint::new(points).convex_hull();
     let ring = &hull.exterior().0;
-    // geo closes the ring: the last point repeats the first.
+    // `geo` closes the ring: the last point repeats the first.
     let n = ring.len().saturating_sub(1);
-    let mut out: Vec<DVec2> = ring[..n].iter().map(|c| DVec2::new(c.x, c.y)).collect();
-    let twice_area: f64 = (0..out.len())
-        .map(|i| out[i].perp_dot(out[(i + 1) % out.len()]))
-        .sum();
-    if twice_area < 0.0 {
-        out.reverse();
+    ring[..n].iter().map(|c| DVec2::new(c.x, c.y)).collect()
+}
+
+impl ObjectRaster {
+    /// The distance the object is queued at and its horizon test takes its
+    /// slope at, seen from `v`, and whether it is the hull's
+    /// ([`super::horizon::object_distance`]).
+    pub fn distance_from(&self, v: DVec2) -> (f64, bool) {
+        super::horizon::object_distance(v, &self.hull, &self.rect)
     }
-    out
 }
 
 fn build_pyramid(objects: &[ObjectRaster]) -> (Vec<PyramidNode>, Option<u32>) {

@@ -580,7 +580,7 @@ impl<'a> Solver<'a> {
                     }
                     for &o in &node.objects {
                         if !visible.contains(o as usize) {
-                            let (d, outside) = object_distance(v, &index.objects[o as usize]);
+                            let (d, outside) = index.objects[o as usize].distance_from(v);
                             self.queue.push(Reverse((key(d), Item::Object(o, outside))));
                         }
                     }
@@ -617,7 +617,7 @@ impl<'a> Solver<'a> {
 
     /// True when the object is hidden: by the horizon over the bins of its
     /// hull (of its rectangle when `v` is inside the hull), at `r`, the
-    /// distance it was queued at ([`object_distance`]; valid for any
+    /// distance it was queued at ([`super::index::ObjectRaster::distance_from`]; valid for any
     /// object, docs/METHOD.md §6), or, when it lies wholly inside the
     /// window, pixel by pixel by the cull map. (An object reaching out of
     /// the window needs the horizon for its outside part, and the horizon
@@ -1316,12 +1316,6 @@ fn add_ready_chains(
 
 /// Distance from `v` to the nearest point of `rect` (0 inside): the
 /// distance at which an item is tested, and chains nearer than it enter.
-/// The distance an object is queued at and its horizon test takes its
-/// slope at ([`horizon::object_distance`]).
-pub(crate) fn object_distance(v: DVec2, object: &super::index::ObjectRaster) -> (f64, bool) {
-    super::horizon::object_distance(v, &object.hull, &object.rect)
-}
-
 pub(crate) fn rect_distance(v: DVec2, rect: &Rect) -> f64 {
     v.clamp(rect.min, rect.max).distance(v)
 }
