@@ -28,7 +28,7 @@
 //! Reading `.pvs` files needs only [`pvs`], [`frame`], [`atomic`] and
 //! [`error`]: `cargo build --no-default-features` builds just those (the
 //! `bake` feature, on by default, brings the rest); the `capi` feature adds
-//! the C ABI reader [`capi`] (header `include/citypvs.h`).
+//! the C ABI reader `capi` (header `include/citypvs.h`).
 
 pub mod atomic;
 #[cfg(feature = "bake")]

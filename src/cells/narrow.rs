@@ -47,7 +47,7 @@ pub struct Opened {
 
 /// The free space opened by the structuring polygon of width `min_gap`,
 /// then cleaned up, tile by tile (see [`super::tiles`]), then with its
-/// facade runs straightened (see [`super::straighten`]). `min_gap <= 0`
+/// facade runs straightened (see `super::straighten`). `min_gap <= 0`
 /// returns `free` unchanged.
 pub fn open_free_space(free: &MultiPolygon, min_gap: f64) -> Opened {
     open_free_space_with(free, min_gap, &super::tiles::Tiling::new(min_gap))

@@ -315,7 +315,7 @@ fn on_grid(v: f64, side: f64) -> bool {
 }
 
 /// Merge the tiles' pieces: vertices on a tile border line that lie within
-/// [`SNAP`] of each other along it (the same point computed in two tiles)
+/// `SNAP` of each other along it (the same point computed in two tiles)
 /// are made exactly one (a tile corner if there is one among them, else the
 /// lowest), so that the two sides of a border share their border vertices
 /// and the merge dissolves the border without leaving slivers.

@@ -101,7 +101,7 @@ impl Kind {
 /// [`ORIGIN_LON`], [`ORIGIN_LAT`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct GeneratedBuilding {
-    /// "b<index>".
+    /// `"b<index>"`.
     pub id: String,
     pub kind: Kind,
     /// Metres.

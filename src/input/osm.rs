@@ -2,7 +2,7 @@
 //! tagged `building=*` or `building:part=*`, their rings assembled from
 //! member ways, heights from `height` / `building:levels` / `roof:levels`,
 //! and lifted parts (`min_height`, `building:min_level`) kept as objects
-//! that do not occlude. Ids are "w<way id>" and "r<relation id>".
+//! that do not occlude. Ids are `"w<way id>"` and `"r<relation id>"`.
 
 use std::collections::{BTreeMap, HashMap, HashSet};
 use std::io::Cursor;

@@ -5,7 +5,7 @@
 //! Submodules: [`rc`] (the range coder), [`blocks`] (the sets' coding in
 //! blocks), [`mesh`] (vertices and corners), [`codec`] (varints and the
 //! version 1 record codings and the Quake/bitset measurements), [`write`] ([`PvsWriter`], [`encode_pvs`], [`write_pvs`]),
-//! [`read`] ([`PvsReader`]: validating and decoding), `grid` (point lookup),
+//! `read` ([`PvsReader`]: validating and decoding), `grid` (point lookup),
 //! and `v1` (a reader of the old version 1 layout, kept only so measurements
 //! can convert old files; [`PvsReader`] refuses version 1).
 

@@ -489,7 +489,7 @@ impl Part {
         Ok(())
     }
 
-    /// Write the file atomically (see [`Part::write_to`]).
+    /// Write the file atomically (see `Part::write_to`).
     pub fn write(&self, path: &std::path::Path) -> Result<()> {
         crate::atomic::write_atomically_with(path, &mut |w| {
             let mut w = std::io::BufWriter::new(w);

@@ -519,7 +519,7 @@ impl<'a> VisibilityEngine<'a> {
     }
 
     /// For each cell of `cells`, the objects that, seen from some sample of
-    /// the cell, lie in the directions of a change ([`ChangeDirections`]),
+    /// the cell, lie in the directions of a change (`ChangeDirections`),
     /// together with `always`: ascending. `None` for a cell with a sample
     /// in one of the rectangles. Only those objects can get another verdict
     /// at the cell's samples when chains inside the rectangles come or go
@@ -598,7 +598,7 @@ impl<'a> VisibilityEngine<'a> {
     /// sample of the cell does not hide, where the objects of `everywhere`
     /// are tested at every sample and those of `where_changed` only at the
     /// samples from which they lie in the directions of a rectangle of
-    /// `changed` ([`ChangeDirections::holds`]). Each unit is solved once,
+    /// `changed` (`ChangeDirections::holds`). Each unit is solved once,
     /// for the objects its cells want, reading at each sample only the bins
     /// that cover the objects it still has to decide there
     /// ([`Solver::solve_point_for`]). `progress` is called with 1 per cell.

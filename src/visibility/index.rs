@@ -392,7 +392,7 @@ const NODE_RECT_MARGIN: f64 = 1e-3;
 /// One level of the bucket hierarchy: the squares of `1 << shift` by
 /// `1 << shift` buckets (from the bucket grid's origin), each with the
 /// union of every chain rectangle of its buckets (all three strides), grown
-/// by [`NODE_RECT_MARGIN`], and the greatest height of its buckets.
+/// by `NODE_RECT_MARGIN`, and the greatest height of its buckets.
 #[derive(Clone, Debug)]
 pub struct BucketNodes {
     shift: u32,
