@@ -503,6 +503,12 @@ pub struct RectView {
 }
 
 impl RectView {
+    /// The view of something the point is (nearly) in: never hidden.
+    const NEVER_HIDDEN: RectView = RectView {
+        bins: None,
+        need: f64::INFINITY,
+    };
+
     /// `rect` up to `top`, seen from `v` at height `eye`.
     pub fn new(v: DVec2, eye: f64, rect: &Rect, top: f64) -> Self {
         Self::with_margin(v, eye, rect, top, 0.0)
@@ -512,20 +518,9 @@ impl RectView {
     /// when `margin` is positive.
     fn with_margin(v: DVec2, eye: f64, rect: &Rect, top: f64, margin: f64) -> Self {
         let Some((r_min, (lo, hi))) = nearest_and_bins(v, rect) else {
-            return RectView {
-                bins: None,
-                need: f64::INFINITY,
-            };
+            return Self::NEVER_HIDDEN;
         };
-        let need = if top >= eye {
-            (top - eye) / r_min
-        } else {
-            let r_max = corners(rect)
-                .iter()
-                .map(|c| c.distance(v))
-                .fold(0.0, f64::max);
-            (top - eye) / r_max
-        };
+        let need = slope_needed((v, eye), top, r_min, &corners(rect));
         let need = if margin > 0.0 {
             need + need.abs() * margin + 1e-12
         } else {
@@ -558,23 +553,14 @@ impl RectView {
             None
         };
         let Some((lo, hi)) = bins.or_else(|| rect_bins(v, rect)) else {
-            return RectView {
-                bins: None,
-                need: f64::INFINITY,
-            };
+            return Self::NEVER_HIDDEN;
         };
-        let need = if top >= eye {
-            (top - eye) / r
+        // The farthest point of a polygon is a vertex of its hull (of its
+        // rectangle, too, which serves when there is no hull).
+        let need = if hull.len() >= 3 {
+            slope_needed((v, eye), top, r, hull)
         } else {
-            // The farthest point of a polygon is a vertex of its hull (of
-            // its rectangle, too, which serves when there is no hull).
-            let far = if hull.len() >= 3 {
-                hull
-            } else {
-                &corners(rect)[..]
-            };
-            let r_max = far.iter().map(|c| c.distance(v)).fold(0.0, max_of);
-            (top - eye) / r_max
+            slope_needed((v, eye), top, r, &corners(rect))
         };
         RectView {
             bins: Some((lo as i32, hi as i32)),
@@ -631,6 +617,19 @@ fn sectors_of_bins(bins: Option<(i64, i64)>) -> Sectors {
     }
     let run: Sectors = (1 << count) - 1;
     run.rotate_left(first.rem_euclid(SECTORS as i64) as u32)
+}
+
+/// The slope a horizon must reach, seen from `v` at height `eye`, to hide
+/// something up to `top` whose nearest point is `near` away: taken at
+/// `near` when the top is at or above the eye, else at the farthest of
+/// `far` (points among which lies its farthest point).
+fn slope_needed((v, eye): (DVec2, f64), top: f64, near: f64, far: &[DVec2]) -> f64 {
+    if top >= eye {
+        (top - eye) / near
+    } else {
+        let r_max = far.iter().map(|c| c.distance(v)).fold(0.0, max_of);
+        (top - eye) / r_max
+    }
 }
 
 /// The bins `lo..=hi` (`lo` in `0..BINS`) that the directions from `v`
