@@ -47,8 +47,12 @@ pub struct Horizon {
     /// Per bin of the chain being added, the reciprocal of the greatest
     /// distance of its parts in the bin's wedge.
     bin_nearness: Vec<f64>,
-    /// Unit direction of each bin's lower border.
-    border_dirs: Vec<DVec2>,
+    /// Unit direction of each bin's lower border, its x and its y.
+    border_x: Vec<f64>,
+    border_y: Vec<f64>,
+    /// The reciprocal distances at the bin borders of the piece being
+    /// added.
+    border_nearness: Vec<f64>,
     /// Per group of GROUP bins, the smallest slope of its bins.
     group_min: Vec<f64>,
     /// Per bin, the tag of the chain that gave it its slope (read only
@@ -71,9 +75,13 @@ impl Default for Horizon {
             chain_angles: Vec::new(),
             chain_dists: Vec::new(),
             bin_nearness: Vec::new(),
-            border_dirs: (0..BINS)
-                .map(|b| direction_of(b as f64 * BIN_WIDTH))
+            border_x: (0..BINS)
+                .map(|b| direction_of(b as f64 * BIN_WIDTH).x)
                 .collect(),
+            border_y: (0..BINS)
+                .map(|b| direction_of(b as f64 * BIN_WIDTH).y)
+                .collect(),
+            border_nearness: Vec::new(),
             group_min: vec![f64::NEG_INFINITY; BINS / GROUP],
             holders: vec![0; BINS],
             skip_hidden: true,
@@ -134,6 +142,36 @@ fn min_of(a: f64, b: f64) -> f64 {
 #[inline]
 fn max_of(a: f64, b: f64) -> f64 {
     if b > a { b } else { a }
+}
+
+/// Fill `out` with the reciprocal distance, along the border ray of each
+/// bin border from `first` on (unwrapped), to the line of a piece with
+/// normal `normal` and `1 / offset` = `inverse_offset`, never below the
+/// reciprocal `far` of the piece's farther end (only `far` where the ray
+/// does not meet the line ahead). Written without branches, in runs of
+/// borders that do not wrap, so that it compiles to packed arithmetic.
+fn border_nearness(
+    (xs, ys): (&[f64], &[f64]),
+    first: i64,
+    (normal, inverse_offset, far): (DVec2, f64, f64),
+    out: &mut [f64],
+) {
+    let mut start = wrap(first);
+    let mut out = out;
+    while !out.is_empty() {
+        let run = out.len().min(BINS - start);
+        let (head, rest) = out.split_at_mut(run);
+        for ((o, &x), &y) in head.iter_mut().zip(&xs[start..]).zip(&ys[start..]) {
+            // The same arithmetic as `DVec2::dot` then the product.
+            let q = (x * normal.x + y * normal.y) * inverse_offset;
+            // `q.is_finite() && q > 0.0`, for a q that may be NaN.
+            let ahead = q > 0.0 && q < f64::INFINITY;
+            let nearer = if far > q { far } else { q };
+            *o = if ahead { nearer } else { far };
+        }
+        out = rest;
+        start = 0;
+    }
 }
 
 /// The bin (unwrapped, any integer) holding pseudo-angle `a`.
@@ -271,51 +309,44 @@ impl Horizon {
             let offset = (a - v).dot(normal);
             let inverse_offset = 1.0 / offset;
             let far_nearness = 1.0 / da.max(db);
-            let dirs = &self.border_dirs;
-            // Reciprocal distance along the border ray of bin `border` to the
-            // edge's line (the border ray meets the edge itself when the
-            // border lies strictly between its end angles), never below the
-            // reciprocal of the edge's farther end.
-            let nearness_at = |border: i64| -> f64 {
-                let q = dirs[wrap(border)].dot(normal) * inverse_offset;
-                if q.is_finite() && q > 0.0 {
-                    max_of(q, far_nearness)
-                } else {
-                    far_nearness
-                }
-            };
-            // The first border at or past tb: BIN_WIDTH is a power of two,
-            // so `border as f64 * BIN_WIDTH` and `tb / BIN_WIDTH` are exact
-            // and `border as f64 * BIN_WIDTH >= tb` is `border >= past_tb`.
-            let past_tb = ceil_i64(tb / BIN_WIDTH);
-            // The borders outside [ta, tb] are replaced by the edge's ends:
-            // the lower border of bin `bin` of this edge.
-            let lower_of = |bin: i64| -> f64 {
-                if bin <= bin_of(ta) {
-                    1.0 / da
-                } else if bin >= past_tb {
-                    1.0 / db
-                } else {
-                    nearness_at(bin)
-                }
-            };
             // Only the bins wholly inside the chain's arc are read below.
             let first = bin_of(ta).max(first_full);
             let last = bin_of(tb).min(last_full);
             if first > last {
                 continue;
             }
-            let mut lower = lower_of(first);
-            for bin in first..=last {
-                let upper_border = bin + 1;
-                let upper = if upper_border >= past_tb {
-                    1.0 / db
-                } else {
-                    nearness_at(upper_border)
-                };
-                let slot = &mut self.bin_nearness[(bin - base) as usize];
+            // The reciprocal distance at each border of the bins
+            // `first..=last` (borders `first..=last + 1`), then each bin
+            // takes the nearer of its two borders.
+            self.border_nearness.clear();
+            self.border_nearness
+                .resize((last + 2 - first) as usize, 0.0);
+            border_nearness(
+                (&self.border_x, &self.border_y),
+                first,
+                (normal, inverse_offset, far_nearness),
+                &mut self.border_nearness,
+            );
+            // The borders outside [ta, tb] are replaced by the edge's ends:
+            // those at or past tb end the list, and only the first border
+            // can lie at or before ta (`first` is not below ta's bin; that
+            // end wins when both hold). (The
+            // first border at or past tb: BIN_WIDTH is a power of two, so
+            // `border as f64 * BIN_WIDTH` and `tb / BIN_WIDTH` are exact
+            // and `border as f64 * BIN_WIDTH >= tb` is `border >= past_tb`.)
+            let past_tb = ceil_i64(tb / BIN_WIDTH);
+            if past_tb <= last + 1 {
+                let near_b = 1.0 / db;
+                let from = (past_tb.max(first) - first) as usize;
+                self.border_nearness[from..].fill(near_b);
+            }
+            if first <= bin_of(ta) {
+                self.border_nearness[0] = 1.0 / da;
+            }
+            let slots = &mut self.bin_nearness[(first - base) as usize..=(last - base) as usize];
+            let borders = &self.border_nearness;
+            for ((slot, &lower), &upper) in slots.iter_mut().zip(borders).zip(&borders[1..]) {
                 *slot = min_of(min_of(*slot, lower), upper);
-                lower = upper;
             }
         }
         // Groups whose smallest slope may have risen: those where a bin at
@@ -784,6 +815,38 @@ mod tests {
     use super::*;
 
     proptest::proptest! {
+        /// The border distances filled run by run (across the wrap of the
+        /// bins too) are, border by border, the reciprocal distance along
+        /// that border's ray to the piece's line where the ray meets it
+        /// ahead, never below the far end's, and the far end's elsewhere.
+        #[test]
+        fn the_border_distances_are_those_of_each_border_ray(
+            first in -3 * BINS as i64..3 * BINS as i64,
+            len in 1usize..BINS,
+            angle in 0.0f64..std::f64::consts::TAU,
+            offset in -500.0f64..500.0,
+            far in 0.0001f64..1.0,
+        ) {
+            let horizon = Horizon::default();
+            let normal = DVec2::from_angle(angle);
+            let mut out = vec![0.0; len];
+            border_nearness(
+                (&horizon.border_x, &horizon.border_y),
+                first,
+                (normal, 1.0 / offset, far),
+                &mut out,
+            );
+            for (k, &got) in out.iter().enumerate() {
+                let dir = direction_of((first + k as i64) as f64 * BIN_WIDTH);
+                let q = dir.dot(normal) / offset;
+                let want = if q.is_finite() && q > 0.0 { q.max(far) } else { far };
+                proptest::prop_assert!(
+                    (got - want).abs() <= 1e-12 * want,
+                    "border {}: {} against {}", first + k as i64, got, want
+                );
+            }
+        }
+
         /// The sectors of a rectangle hold the sector of the bin of every
         /// point in it, seen from anywhere outside it (corners, edges and
         /// inside points alike), and only sectors its directions reach.
