@@ -1042,6 +1042,14 @@ fn queue_bucket_chains(
     }
 }
 
+/// Where the stretch of walk positions from `i` onwards that shares its
+/// node of `level` with `i` ends, at most at `end` (positions are columns
+/// along a row or rows along a column, and nodes are aligned to them).
+fn stretch_end(level: usize, i: usize, end: usize) -> usize {
+    let side = 1usize << NODE_SHIFTS[level];
+    (i | (side - 1)).min(end)
+}
+
 /// One ring of the bucket sweep around a sample, against the horizon as it
 /// stands: every bucket of the ring in the order of
 /// [`SceneIndex::buckets_in_ring`], except those under a node of the
@@ -1199,21 +1207,29 @@ impl Sweep<'_, '_> {
         if !self.node_skipped(level, x, y) {
             return None;
         }
-        let side = 1usize << NODE_SHIFTS[level];
-        Some((i | (side - 1)).min(end))
+        Some(stretch_end(level, i, end))
     }
 
     /// Walk buckets `at(lo)..=at(hi)` along one row or column, jumping over
-    /// the stretches whose nodes are passed over.
+    /// the stretches whose nodes are passed over. A node found not passed
+    /// over is not asked again for the other buckets of its stretch: the
+    /// horizon does not change during a walk, so it would answer the same.
     fn walk(&mut self, lo: usize, hi: usize, at: impl Fn(usize) -> (usize, usize)) {
+        // Per level, the last position of the stretch whose node was found
+        // not passed over.
+        let mut open_until: [Option<usize>; NODE_LEVELS] = [None; NODE_LEVELS];
         let mut i = lo;
         'walk: while i <= hi {
             let bucket = at(i);
             for level in (0..NODE_LEVELS).rev() {
+                if open_until[level].is_some_and(|last| i <= last) {
+                    continue;
+                }
                 if let Some(last) = self.hidden_stretch(level, i, hi, bucket) {
                     i = last + 1;
                     continue 'walk;
                 }
+                open_until[level] = Some(stretch_end(level, i, hi));
             }
             self.bucket_under_open_nodes(bucket.0, bucket.1);
             i += 1;
