@@ -70,17 +70,19 @@ pub struct Horizon {
 
 impl Default for Horizon {
     fn default() -> Self {
+        let (border_x, border_y) = (0..BINS)
+            .map(|b| {
+                let d = direction_of(b as f64 * BIN_WIDTH);
+                (d.x, d.y)
+            })
+            .unzip();
         Horizon {
             slopes: vec![f64::NEG_INFINITY; BINS],
             chain_angles: Vec::new(),
             chain_dists: Vec::new(),
             bin_nearness: Vec::new(),
-            border_x: (0..BINS)
-                .map(|b| direction_of(b as f64 * BIN_WIDTH).x)
-                .collect(),
-            border_y: (0..BINS)
-                .map(|b| direction_of(b as f64 * BIN_WIDTH).y)
-                .collect(),
+            border_x,
+            border_y,
             border_nearness: Vec::new(),
             group_min: vec![f64::NEG_INFINITY; BINS / GROUP],
             holders: vec![0; BINS],
@@ -310,7 +312,8 @@ impl Horizon {
             let inverse_offset = 1.0 / offset;
             let far_nearness = 1.0 / da.max(db);
             // Only the bins wholly inside the chain's arc are read below.
-            let first = bin_of(ta).max(first_full);
+            let ta_bin = bin_of(ta);
+            let first = ta_bin.max(first_full);
             let last = bin_of(tb).min(last_full);
             if first > last {
                 continue;
@@ -330,17 +333,17 @@ impl Horizon {
             // The borders outside [ta, tb] are replaced by the edge's ends:
             // those at or past tb end the list, and only the first border
             // can lie at or before ta (`first` is not below ta's bin; that
-            // end wins when both hold). (The
-            // first border at or past tb: BIN_WIDTH is a power of two, so
-            // `border as f64 * BIN_WIDTH` and `tb / BIN_WIDTH` are exact
-            // and `border as f64 * BIN_WIDTH >= tb` is `border >= past_tb`.)
+            // end wins when both hold). `past_tb` is the first border at or
+            // past tb: BIN_WIDTH is a power of two, so `border as f64 *
+            // BIN_WIDTH` and `tb / BIN_WIDTH` are exact and `border as f64 *
+            // BIN_WIDTH >= tb` is `border >= past_tb`; it is no lower than
+            // tb's bin, so no lower than `first`.
             let past_tb = ceil_i64(tb / BIN_WIDTH);
             if past_tb <= last + 1 {
-                let near_b = 1.0 / db;
-                let from = (past_tb.max(first) - first) as usize;
-                self.border_nearness[from..].fill(near_b);
+                let from = (past_tb - first) as usize;
+                self.border_nearness[from..].fill(1.0 / db);
             }
-            if first <= bin_of(ta) {
+            if first <= ta_bin {
                 self.border_nearness[0] = 1.0 / da;
             }
             let slots = &mut self.bin_nearness[(first - base) as usize..=(last - base) as usize];
