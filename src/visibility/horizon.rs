@@ -288,9 +288,16 @@ impl Horizon {
             .fold(f64::INFINITY, min_of)
             .sqrt();
         let rise = height - eye;
-        if self.skip_hidden && self.all_at_least(first_full, last_full, rise / nearest) {
-            return;
-        }
+        // Only the bins below that slope can be raised: the others are left
+        // out of the per-bin work below (they would keep their slopes).
+        let (first_full, last_full) = if self.skip_hidden {
+            match self.below_in(first_full, last_full, rise / nearest) {
+                Some(range) => range,
+                None => return,
+            }
+        } else {
+            (first_full, last_full)
+        };
         // The distances of the points, needed only by a chain that may
         // raise a bin (most are passed over above).
         self.chain_dists.clear();
@@ -481,12 +488,30 @@ impl Horizon {
         failing
     }
 
+    /// The first and the last bin of `lo..=hi` (unwrapped) whose slope is
+    /// below `need` (or NaN), or `None` when there is none.
+    fn below_in(&self, lo: i64, hi: i64, need: f64) -> Option<(i64, i64)> {
+        let first = self.first_below(lo, hi, need)?;
+        // `first` is below, so the backward scan stops there at the latest.
+        let mut last = hi;
+        while last > first && self.slopes[wrap(last)] >= need {
+            last -= 1;
+        }
+        Some((first, last))
+    }
+
     /// Whether every bin of `lo..=hi` (unwrapped) has a slope of at least
-    /// `need`: whole groups are passed on their minimum, the same answer as
-    /// bin by bin.
+    /// `need`.
+    fn all_at_least(&self, lo: i64, hi: i64, need: f64) -> bool {
+        self.first_below(lo, hi, need).is_none()
+    }
+
+    /// The first bin of `lo..=hi` (unwrapped) whose slope is below `need`
+    /// (or NaN): whole groups are passed on their minimum, the same answer
+    /// as bin by bin.
     // `!(a >= b)` on purpose: a NaN fails the test, as in `all(|s| s >= need)`.
     #[allow(clippy::neg_cmp_op_on_partial_ord)]
-    fn all_at_least(&self, lo: i64, hi: i64, need: f64) -> bool {
+    fn first_below(&self, lo: i64, hi: i64, need: f64) -> Option<i64> {
         let mut b = lo;
         while b <= hi {
             let w = wrap(b);
@@ -500,11 +525,11 @@ impl Horizon {
                 continue;
             }
             if !(self.slopes[w] >= need) {
-                return false;
+                return Some(b);
             }
             b += 1;
         }
-        true
+        None
     }
 }
 
@@ -1041,6 +1066,48 @@ mod tests {
                 if read && below {
                     let sector = (1 as Sectors) << (w / SECTOR_BINS);
                     proptest::prop_assert!(failing & sector != 0, "bin {b}");
+                }
+            }
+        }
+    }
+
+    proptest::proptest! {
+        /// Passing over the chains that cannot raise a bin, and leaving out
+        /// of a chain's per-bin work the bins at either end of its arc that
+        /// are already as steep as it could make them, gives the horizon
+        /// that adding every chain in full gives: the same slopes, bit for
+        /// bit, held by the same chains.
+        #[test]
+        fn skipping_what_cannot_rise_leaves_the_full_horizon(
+            chains in proptest::collection::vec(
+                (
+                    (-300.0f64..300.0, -300.0f64..300.0),
+                    proptest::collection::vec((-40.0f64..40.0, -40.0f64..40.0), 1..6),
+                    2.0f64..40.0,
+                ),
+                1..40,
+            ),
+        ) {
+            let v = DVec2::new(0.5, -0.25);
+            let mut skipping = Horizon::default();
+            let mut full = Horizon {
+                skip_hidden: false,
+                ..Horizon::default()
+            };
+            for (tag, ((x, y), steps, height)) in chains.iter().enumerate() {
+                let mut p = DVec2::new(*x, *y);
+                let mut points = vec![p];
+                for (dx, dy) in steps {
+                    p += DVec2::new(*dx, *dy);
+                    points.push(p);
+                }
+                skipping.add_chain(v, 1.7, *height, tag as u64, &points);
+                full.add_chain(v, 1.7, *height, tag as u64, &points);
+            }
+            for b in 0..BINS {
+                proptest::prop_assert_eq!(skipping.slopes[b].to_bits(), full.slopes[b].to_bits());
+                if skipping.slopes[b].is_finite() {
+                    proptest::prop_assert_eq!(skipping.holders[b], full.holders[b]);
                 }
             }
         }
