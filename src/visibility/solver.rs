@@ -1194,22 +1194,6 @@ impl Sweep<'_, '_> {
         queue_bucket_chains(index, v, self.vc, eye, (bucket, stride), self.chains);
     }
 
-    /// Where the stretch of buckets from `i` onwards that shares nodes of
-    /// `level` with `i` ends (at most `end`), when the node of `level`
-    /// holding bucket `(x, y)` is passed over; `None` otherwise.
-    fn hidden_stretch(
-        &mut self,
-        level: usize,
-        i: usize,
-        end: usize,
-        (x, y): (usize, usize),
-    ) -> Option<usize> {
-        if !self.node_skipped(level, x, y) {
-            return None;
-        }
-        Some(stretch_end(level, i, end))
-    }
-
     /// Walk buckets `at(lo)..=at(hi)` along one row or column, jumping over
     /// the stretches whose nodes are passed over. A node found not passed
     /// over is not asked again for the other buckets of its stretch: the
@@ -1225,11 +1209,13 @@ impl Sweep<'_, '_> {
                 if open_until[level].is_some_and(|last| i <= last) {
                     continue;
                 }
-                if let Some(last) = self.hidden_stretch(level, i, hi, bucket) {
+                // The node's stretch is passed over whole, or left open.
+                let last = stretch_end(level, i, hi);
+                if self.node_skipped(level, bucket.0, bucket.1) {
                     i = last + 1;
                     continue 'walk;
                 }
-                open_until[level] = Some(stretch_end(level, i, hi));
+                open_until[level] = Some(last);
             }
             self.bucket_under_open_nodes(bucket.0, bucket.1);
             i += 1;
