@@ -276,6 +276,36 @@ mod tests {
         assert_eq!(w.at_point(DVec2::new(6.5, 20.5)), Some(0.0));
     }
 
+    proptest::proptest! {
+        /// The solver draws only the edges whose box meets the window: an
+        /// edge beyond one of its sides (every edge whose box misses it
+        /// is) must cast no shadow into it, seen from an eye inside it.
+        #[test]
+        fn an_edge_outside_the_window_casts_no_shadow_into_it(
+            eye in proptest::array::uniform2(-50.0f64..50.0),
+            radius in 2.0f64..20.0,
+            side in 0usize..4,
+            along in proptest::array::uniform2(-80.0f64..80.0),
+            out in proptest::array::uniform2(0.0f64..40.0),
+            height in 0.5f64..60.0,
+        ) {
+            let v = DVec2::from(eye);
+            let mut w = CullWindow::new(PixelGrid { pixel: 0.5 });
+            w.reset_around(v, radius);
+            let r = w.rect();
+            let end = |t: f64, o: f64| match side {
+                0 => DVec2::new(r.max.x + 1e-9 + o, v.y + t),
+                1 => DVec2::new(r.min.x - 1e-9 - o, v.y + t),
+                2 => DVec2::new(v.x + t, r.max.y + 1e-9 + o),
+                _ => DVec2::new(v.x + t, r.min.y - 1e-9 - o),
+            };
+            let (a, b) = (end(along[0], out[0]), end(along[1], out[1]));
+            w.rasterise_shadow(v, 1.7, a, b, height);
+            w.rasterise_shadow(v, 1.7, b, a, height);
+            proptest::prop_assert!(w.heights.iter().all(|&u| u == 0.0));
+        }
+    }
+
     #[test]
     fn rounding_goes_down() {
         for v in [0.1f64, 1.0 / 3.0, 18.8, 1e-9, 12345.678] {

@@ -962,18 +962,47 @@ impl<'a> Solver<'a> {
         // bucket; its copies sort next to each other (the same distance,
         // geometry and number) and are dropped after the sort, which keeps
         // no per-edge mark in each solver.
+        // Only the edges that can draw are kept: silhouette edges (where
+        // H > h those that face the eye, where H <= h those that face
+        // away) that meet the window. An edge whose box misses the window
+        // casts no shadow into it: a point of the shadow lies beyond the
+        // edge on a ray from the eye, which meets the edge first, and the
+        // window is convex and holds the eye (it is placed around the
+        // sample; a picture's window around a cell holds the cell's
+        // samples), so it would hold that point of the edge too. Leaving
+        // the others out before the sort keeps the order of the rest, so
+        // the same edges are drawn and dropped in the same order.
+        debug_assert!(
+            rect.intersects(&Rect::of_points(&[v])),
+            "the eye lies outside the window"
+        );
+        let eye = self.eye;
         index.edges_near(&rect, |e| {
             let (a, b) = index.edge_points(e);
-            gathered.push((distance_to_segment(v, a, b), e));
+            let height = index.edges[e as usize].height;
+            // The solid is on the edge's left; the eye faces the edge's
+            // outside when it is on its right.
+            let eye_outside = (b - a).perp_dot(v - a) < 0.0;
+            let silhouette = if height > eye {
+                eye_outside
+            } else {
+                !eye_outside
+            };
+            if silhouette && Rect::of_points(&[a, b]).intersects(&rect) {
+                gathered.push((distance_to_segment(v, a, b), e));
+            }
         });
         // Ties in distance are broken by the edges' own coordinates, not by
         // their numbering, so the drawing order (and the drops) depend on the
-        // edges only, not on what else the city holds.
+        // edges only, not on what else the city holds. The order is total
+        // (the edge's number decides last, and two entries equal under it
+        // are copies of one edge), so an unstable sort gives the same order
+        // as a stable one, without the stable sort's buffer.
         let geometry = |e: u32| {
             let (a, b) = index.edge_points(e);
             [a.x, a.y, b.x, b.y, index.edges[e as usize].height]
         };
-        self.gathered.sort_by(|x, y| {
+        self.gathered.sort_unstable_by(|x, y| {
             x.0.total_cmp(&y.0).then_with(|| {
                 let (gx, gy) = (geometry(x.1), geometry(y.1));
                 gx.iter()
@@ -988,15 +1017,7 @@ impl<'a> Solver<'a> {
         for &(_, e) in &self.gathered {
             let (a, b) = index.edge_points(e);
             let height = index.edges[e as usize].height;
-            // The solid is on the edge's left; the eye faces the edge's outside
-            // when it is on its right.
-            let eye_outside = (b - a).perp_dot(v - a) < 0.0;
-            let silhouette = if height > self.eye {
-                eye_outside
-            } else {
-                !eye_outside
-            };
-            if silhouette && !self.window.segment_hidden(a, b, height) {
+            if !self.window.segment_hidden(a, b, height) {
                 self.window.rasterise_shadow(v, self.eye, a, b, height);
             }
         }
