@@ -301,7 +301,6 @@ mod tests {
             };
             let (a, b) = (end(along[0], out[0]), end(along[1], out[1]));
             w.rasterise_shadow(v, 1.7, a, b, height);
-            w.rasterise_shadow(v, 1.7, b, a, height);
             proptest::prop_assert!(w.heights.iter().all(|&u| u == 0.0));
         }
     }
