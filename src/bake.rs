@@ -137,6 +137,31 @@ pub fn object_points(scene: &Scene) -> Vec<glam::DVec2> {
         .collect()
 }
 
+/// CPU seconds (user and system, every thread) this process has used so
+/// far, where the OS tells it: the difference over a stretch of work is
+/// the work's CPU time, which moves less than its wall time when other
+/// programs share the machine.
+pub fn cpu_seconds() -> Option<f64> {
+    #[cfg(unix)]
+    {
+        let mut usage = std::mem::MaybeUninit::<libc::rusage>::zeroed();
+        // SAFETY: `getrusage` writes a `rusage` into the pointer it is given
+        // and reads nothing else; the struct is zero-initialised first.
+        let status = unsafe { libc::getrusage(libc::RUSAGE_SELF, usage.as_mut_ptr()) };
+        if status != 0 {
+            return None;
+        }
+        // SAFETY: zero bits are a valid `rusage`, and the call succeeded.
+        let usage = unsafe { usage.assume_init() };
+        let seconds = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
+        Some(seconds(usage.ru_utime) + seconds(usage.ru_stime))
+    }
+    #[cfg(not(unix))]
+    {
+        None
+    }
+}
+
 /// Peak resident memory of this process in bytes, where the OS tells it.
 pub fn peak_memory_bytes() -> Option<u64> {
     let status = std::fs::read_to_string("/proc/self/status").ok()?;

@@ -1,8 +1,10 @@
 //! `citypvs bench`: generate cities of several sizes, prepare and bake each,
 //! and print the figures (cells, seconds, cells per second, seconds per cell,
 //! visible cell-building pairs per second, PVS sizes, bytes per cell), then
-//! how each larger city's speed compares with the smallest one's. Speed is
-//! measured here, never in tests.
+//! how each larger city's speed compares with the smallest one's. With
+//! `--repeat N` each city is baked N times and the run of median wall time
+//! stands for it, with the spread beside it, so that a change of a few per
+//! cent is not lost in one noisy run. Speed is measured here, never in tests.
 
 use std::time::Instant;
 
@@ -29,6 +31,12 @@ pub struct BenchArgs {
     /// Worker threads [default: all cores].
     #[arg(long, value_name = "N")]
     pub threads: Option<usize>,
+    /// Bake each city this many times and report the run of median wall
+    /// time, with the fastest and slowest beside it (every run must write
+    /// the same bytes).
+    #[arg(long, value_name = "N", default_value_t = 1,
+          value_parser = clap::value_parser!(u32).range(1..=MAX_REPEAT as i64))]
+    pub repeat: u32,
     /// Print one JSON object per city instead of a table.
     #[arg(long)]
     pub json: bool,
@@ -41,6 +49,9 @@ pub struct BenchArgs {
     pub baseline: Option<std::path::PathBuf>,
 }
 
+/// The most bakes of one city `--repeat` asks for.
+const MAX_REPEAT: u32 = 100;
+
 /// Figures for one city.
 #[derive(serde::Serialize, serde::Deserialize, Clone, Debug)]
 struct Row {
@@ -51,6 +62,23 @@ struct Row {
     bake_seconds: f64,
     cells_per_second: f64,
     micros_per_cell: f64,
+    /// How many times the city was baked; the figures are those of the run
+    /// of median wall time (1 in runs saved by older versions).
+    #[serde(default = "one_run")]
+    runs: u32,
+    /// The fastest and slowest of those runs' wall times (0 in runs saved
+    /// by older versions).
+    #[serde(default)]
+    bake_seconds_min: f64,
+    #[serde(default)]
+    bake_seconds_max: f64,
+    /// CPU seconds (user and system, all threads) of the median run's bake,
+    /// and per cell: they move less than wall time when the machine is
+    /// shared. 0 where the OS does not tell, and in older saved runs.
+    #[serde(default)]
+    cpu_seconds: f64,
+    #[serde(default)]
+    cpu_micros_per_cell: f64,
     /// Visible (cell, building) pairs written per second of the bake: the
     /// work of a sample grows with what it sees, so this figure stays
     /// nearly flat as a city grows when cells per second falls because
@@ -65,6 +93,10 @@ struct Row {
     raw_bitset_bytes_per_cell: f64,
     rle_bitset_bytes_per_cell: f64,
     peak_memory_bytes_so_far: Option<u64>,
+}
+
+fn one_run() -> u32 {
+    1
 }
 
 /// What `--save` writes.
@@ -88,8 +120,9 @@ fn read_baseline(path: &std::path::Path) -> Result<Saved> {
 }
 
 /// The figures compared with a baseline, and whether lower is better.
-const COMPARED: [(&str, bool); 7] = [
+const COMPARED: [(&str, bool); 8] = [
     ("bake_seconds", true),
+    ("cpu_seconds", true),
     ("cells_per_second", false),
     ("visible_pairs_per_second", false),
     ("mean_visible", true),
@@ -101,6 +134,7 @@ const COMPARED: [(&str, bool); 7] = [
 fn figure(row: &Row, name: &str) -> f64 {
     match name {
         "bake_seconds" => row.bake_seconds,
+        "cpu_seconds" => row.cpu_seconds,
         "cells_per_second" => row.cells_per_second,
         "visible_pairs_per_second" => row.visible_pairs_per_second,
         "mean_visible" => row.mean_visible,
@@ -157,6 +191,9 @@ fn print_scaling(rows: &[Row], json: bool) {
     for row in rows.iter().filter(|r| r.buildings > small.buildings) {
         let cells = row.cells_per_second / small.cells_per_second;
         let pairs = row.visible_pairs_per_second / small.visible_pairs_per_second;
+        // Cells per CPU second, where both runs tell their CPU time.
+        let cpu = (row.cpu_micros_per_cell > 0.0 && small.cpu_micros_per_cell > 0.0)
+            .then(|| small.cpu_micros_per_cell / row.cpu_micros_per_cell);
         if json {
             println!(
                 "{}",
@@ -165,11 +202,13 @@ fn print_scaling(rows: &[Row], json: bool) {
                     "against_buildings": small.buildings,
                     "cells_per_second_ratio": cells,
                     "visible_pairs_per_second_ratio": pairs,
+                    "cells_per_cpu_second_ratio": cpu,
                 })
             );
         } else {
+            let cpu = cpu.map_or(String::new(), |r| format!(", cells per CPU second {r:.2}x"));
             println!(
-                "  {} against {} buildings: cells/s {:.2}x, visible pairs/s {:.2}x (mean PVS {:.1} against {:.1})",
+                "  {} against {} buildings: cells/s {:.2}x{cpu}, visible pairs/s {:.2}x (mean PVS {:.1} against {:.1})",
                 row.buildings, small.buildings, cells, pairs, row.mean_visible, small.mean_visible
             );
         }
@@ -191,11 +230,12 @@ pub fn run(args: &BenchArgs) -> Result<i32> {
     let mut rows = Vec::new();
     if !args.json {
         println!(
-            "{:>9} {:>8} {:>9} {:>9} {:>9} {:>10} {:>9} {:>9} {:>8} {:>7} {:>9}",
+            "{:>9} {:>8} {:>9} {:>9} {:>9} {:>9} {:>10} {:>9} {:>9} {:>8} {:>7} {:>9}",
             "buildings",
             "cells",
             "prepare s",
             "bake s",
+            "CPU s",
             "cells/s",
             "us/cell",
             "pairs/s",
@@ -223,27 +263,25 @@ pub fn run(args: &BenchArgs) -> Result<i32> {
         let t = Instant::now();
         let scene = pool.install(|| prepare(city, &Settings::default()))?;
         let prepare_seconds = t.elapsed().as_secs_f64();
-        // The bake `citypvs bake` runs (the engine, the sets kept compressed
-        // with checkpoints, the file written one set at a time), so its time
-        // and peak memory are the command's.
         let output = dir.path().join(format!("bench-{n}.pvs"));
-        let t = Instant::now();
-        let baked = pool.install(|| -> Result<_> {
-            let engine = crate::visibility::VisibilityEngine::new(&scene)?;
-            bake_range(
-                &scene,
-                &engine,
-                ShardSpec { k: 0, n: 1 },
-                0..scene.cells.triangles.len(),
-                &output,
-                &|_| {},
-                &mut |_| {},
-            )
-        })?;
-        let bake_seconds = t.elapsed().as_secs_f64();
-        let written = baked.part.write_pvs(&output)?;
-        remove_checkpoint(&output)?;
-        let stats = baked.stats;
+        let mut runs = Vec::new();
+        for _ in 0..args.repeat {
+            let run = pool.install(|| bake_once(&scene, &output))?;
+            if let Some(first) = runs.first().map(|r: &Run| r.digest)
+                && first != run.digest
+            {
+                return Err(crate::Error::mismatch(format!(
+                    "bench: two bakes of the generated {n}-building city wrote different bytes"
+                )));
+            }
+            runs.push(run);
+        }
+        let (fastest, slowest) = runs.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), r| {
+            (lo.min(r.seconds), hi.max(r.seconds))
+        });
+        runs.sort_by(|a, b| a.seconds.total_cmp(&b.seconds));
+        let median = runs.swap_remove((runs.len() - 1) / 2);
+        let (bake_seconds, stats, written) = (median.seconds, median.stats, median.written);
         let cells = stats.cells.max(1) as f64;
         let row = Row {
             buildings: n,
@@ -253,6 +291,11 @@ pub fn run(args: &BenchArgs) -> Result<i32> {
             bake_seconds,
             cells_per_second: stats.cells as f64 / bake_seconds,
             micros_per_cell: 1e6 * bake_seconds / cells,
+            runs: args.repeat,
+            bake_seconds_min: fastest,
+            bake_seconds_max: slowest,
+            cpu_seconds: median.cpu_seconds.unwrap_or(0.0),
+            cpu_micros_per_cell: 1e6 * median.cpu_seconds.unwrap_or(0.0) / cells,
             visible_pairs_per_second: stats.mean_visible * stats.cells as f64 / bake_seconds,
             mean_visible: stats.mean_visible,
             max_visible: stats.max_visible,
@@ -267,11 +310,12 @@ pub fn run(args: &BenchArgs) -> Result<i32> {
             println!("{}", serde_json::to_string(&row).expect("row serialises"));
         } else {
             println!(
-                "{:>9} {:>8} {:>9.2} {:>9.2} {:>9.0} {:>10.0} {:>9.0} {:>9.1} {:>7.1}% {:>7.1} {:>9.0}",
+                "{:>9} {:>8} {:>9.2} {:>9.2} {:>9.2} {:>9.0} {:>10.0} {:>9.0} {:>9.1} {:>7.1}% {:>7.1} {:>9.0}",
                 row.buildings,
                 row.cells,
                 row.prepare_seconds,
                 row.bake_seconds,
+                row.cpu_seconds,
                 row.cells_per_second,
                 row.micros_per_cell,
                 row.visible_pairs_per_second,
@@ -280,6 +324,12 @@ pub fn run(args: &BenchArgs) -> Result<i32> {
                 row.bytes_per_cell,
                 row.peak_memory_bytes_so_far.unwrap_or(0) as f64 / 1048576.0
             );
+            if row.runs > 1 {
+                println!(
+                    "{:>9} {} runs: bake s {:.2} (median), {:.2} to {:.2}",
+                    "", row.runs, row.bake_seconds, row.bake_seconds_min, row.bake_seconds_max
+                );
+            }
         }
         if let Some(base) = &baseline {
             if args.json {
@@ -313,4 +363,51 @@ pub fn run(args: &BenchArgs) -> Result<i32> {
         crate::atomic::write_atomically(path, text.as_bytes())?;
     }
     Ok(0)
+}
+
+/// One bake of a prepared city, as `bench` times it.
+struct Run {
+    seconds: f64,
+    cpu_seconds: Option<f64>,
+    stats: crate::bake::BakeStats,
+    written: crate::pvs::WriteStats,
+    /// SHA-256 of the file written, so that repeated runs can be checked
+    /// to write the same bytes.
+    digest: [u8; 32],
+}
+
+/// The bake `citypvs bake` runs (the engine, the sets kept compressed with
+/// checkpoints, the file written one set at a time), so its time and peak
+/// memory are the command's; the file and checkpoint are removed after.
+fn bake_once(scene: &crate::prepare::Scene, output: &std::path::Path) -> Result<Run> {
+    let t = Instant::now();
+    let cpu = crate::bake::cpu_seconds();
+    let baked = {
+        let engine = crate::visibility::VisibilityEngine::new(scene)?;
+        bake_range(
+            scene,
+            &engine,
+            ShardSpec { k: 0, n: 1 },
+            0..scene.cells.triangles.len(),
+            output,
+            &|_| {},
+            &mut |_| {},
+        )?
+    };
+    let seconds = t.elapsed().as_secs_f64();
+    let cpu_seconds = cpu.zip(crate::bake::cpu_seconds()).map(|(a, b)| b - a);
+    let written = baked.part.write_pvs(output)?;
+    let bytes = std::fs::read(output)
+        .map_err(|e| crate::Error::io(format!("{}: cannot read back: {e}", output.display())))?;
+    remove_checkpoint(output)?;
+    std::fs::remove_file(output)
+        .map_err(|e| crate::Error::io(format!("{}: cannot remove: {e}", output.display())))?;
+    use sha2::Digest;
+    Ok(Run {
+        seconds,
+        cpu_seconds,
+        stats: baked.stats,
+        written,
+        digest: sha2::Sha256::digest(&bytes).into(),
+    })
 }

@@ -1,6 +1,7 @@
 //! `citypvs bench`: its figures are those of `citypvs bake` on the same
 //! generated city, `--save` keeps them and `--baseline` sets a later run
-//! beside them; a file that is not a saved run is refused.
+//! beside them; a file that is not a saved run is refused; `--repeat`
+//! reports the run of median time with the spread of all of them.
 
 use crate::common::{citypvs, citypvs_json, stderr};
 
@@ -158,4 +159,52 @@ fn bench_sets_each_larger_city_beside_the_smallest() {
             "{key}: {scaling}"
         );
     }
+    // Cells per CPU second: the smaller city's CPU time per cell over the
+    // larger one's.
+    if cfg!(target_os = "linux") {
+        let want = small["cpu_micros_per_cell"].as_f64().unwrap()
+            / big["cpu_micros_per_cell"].as_f64().unwrap();
+        let got = scaling["cells_per_cpu_second_ratio"].as_f64().unwrap();
+        assert!((got - want).abs() <= 1e-9 * want, "{scaling}");
+    }
+}
+
+#[test]
+fn bench_repeats_a_bake_and_reports_the_median_run_with_its_spread() {
+    let dir = tempfile::tempdir().unwrap();
+    let lines = json_lines(
+        dir.path(),
+        &bench_small(&["--threads", "1", "--json", "--repeat", "3"]),
+    );
+    assert_eq!(lines.len(), 1, "{lines:?}");
+    let row = &lines[0];
+    assert_eq!(row["runs"], 3, "{row}");
+    let figure = |key: &str| row[key].as_f64().unwrap();
+    let (lo, median, hi) = (
+        figure("bake_seconds_min"),
+        figure("bake_seconds"),
+        figure("bake_seconds_max"),
+    );
+    assert!(0.0 < lo && lo <= median && median <= hi, "{row}");
+    // The median run's figures are consistent with its time.
+    let cells = figure("cells");
+    assert!(
+        (figure("cells_per_second") - cells / median).abs() <= 1e-9 * cells / median,
+        "{row}"
+    );
+    // The bake's CPU time is counted (Linux tells it), per cell as well.
+    if cfg!(target_os = "linux") {
+        let cpu = figure("cpu_seconds");
+        assert!(cpu > 0.0, "{row}");
+        assert!(
+            (figure("cpu_micros_per_cell") - 1e6 * cpu / cells).abs() <= 1e-6 * cpu,
+            "{row}"
+        );
+    }
+
+    // Zero repeats is refused before anything is baked.
+    let out = citypvs(dir.path(), &bench_small(&["--repeat", "0"]));
+    assert_eq!(out.status.code(), Some(2));
+    assert!(stderr(&out).contains("--repeat"), "{}", stderr(&out));
+    assert!(out.stdout.is_empty());
 }
