@@ -28,11 +28,13 @@ use crate::{Error, Result};
 
 pub use codec::SchemeSizes;
 pub use read::PvsReader;
+#[cfg(feature = "bake")]
 pub(crate) use read::{decode_block, ranks_to_input};
 pub use write::{
     EachSet, PvsWriter, encode_pvs, encode_pvs_with_points, object_ranks, points_from_sets,
     spatial_ranks, write_pvs, write_pvs_with_points, write_streamed,
 };
+#[cfg(feature = "bake")]
 pub(crate) use write::{rank_of_input, set_ranks};
 
 /// The bake parameters and provenance stored in the header.
