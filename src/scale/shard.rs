@@ -123,7 +123,7 @@ pub const MAX_PROBES: usize = 2048;
 /// objects seen from a probe near it in cell order. The cells are cut into
 /// as many stretches as there are probes, and the first corner of each
 /// stretch's middle cell is solved in full; the cost of a sample grows with
-/// what it sees (docs/DESIGN.md, "Where the time goes as cities grow"), and
+/// what it sees (docs/performance.md, "Where the time goes as cities grow"), and
 /// cells near the city's open edges see more than others. The probes'
 /// counts are a function of the scene, so every shard process computes the
 /// same costs, and the split decides only which process solves a cell:
