@@ -139,8 +139,7 @@ pub fn object_points(scene: &Scene) -> Vec<glam::DVec2> {
 
 /// CPU seconds (user and system, every thread) this process has used so
 /// far, where the OS tells it: the difference over a stretch of work is
-/// the work's CPU time, which moves less than its wall time when other
-/// programs share the machine.
+/// the work's CPU time.
 pub fn cpu_seconds() -> Option<f64> {
     #[cfg(unix)]
     {

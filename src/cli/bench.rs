@@ -2,9 +2,10 @@
 //! and print the figures (cells, seconds, cells per second, seconds per cell,
 //! visible cell-building pairs per second, PVS sizes, bytes per cell), then
 //! how each larger city's speed compares with the smallest one's. With
-//! `--repeat N` each city is baked N times and the run of median wall time
-//! stands for it, with the spread beside it, so that a change of a few per
-//! cent is not lost in one noisy run. Speed is measured here, never in tests.
+//! `--repeat N` the cities are baked in N rounds (each city once a round)
+//! and the run of median wall time stands for each, with the spread beside
+//! it, so that a change of a few per cent is not lost in one noisy run.
+//! Speed is measured here, never in tests.
 
 use std::time::Instant;
 
@@ -31,9 +32,10 @@ pub struct BenchArgs {
     /// Worker threads [default: all cores].
     #[arg(long, value_name = "N")]
     pub threads: Option<usize>,
-    /// Bake each city this many times and report the run of median wall
-    /// time, with the fastest and slowest beside it (every run must write
-    /// the same bytes).
+    /// Bake each city this many times, in rounds (each city once a round,
+    /// so a machine whose speed drifts touches all cities alike), and report
+    /// the run of median wall time with the fastest and slowest beside it
+    /// (every run must write the same bytes).
     #[arg(long, value_name = "N", default_value_t = 1,
           value_parser = clap::value_parser!(u32).range(1..=MAX_REPEAT as i64))]
     pub repeat: u32,
@@ -73,8 +75,9 @@ struct Row {
     #[serde(default)]
     bake_seconds_max: f64,
     /// CPU seconds (user and system, all threads) of the median run's bake,
-    /// and per cell: they move less than wall time when the machine is
-    /// shared. 0 where the OS does not tell, and in older saved runs.
+    /// and per cell (a wall time well above the CPU time over the threads
+    /// shows a run that waited for its cores). 0 where the OS does not
+    /// tell, and in older saved runs.
     #[serde(default)]
     cpu_seconds: f64,
     #[serde(default)]
@@ -247,7 +250,68 @@ pub fn run(args: &BenchArgs) -> Result<i32> {
     }
     let dir = tempfile::tempdir()
         .map_err(|e| crate::Error::io(format!("cannot make a temporary folder: {e}")))?;
-    for &n in &args.buildings {
+    // With `--repeat`, the cities are baked in rounds (each city once per
+    // round, in the order given), so that a machine that slows down or
+    // speeds up over the minutes of a bench touches every city alike and
+    // the ratios between them hold. A city's row is printed after its last
+    // run; its scene is kept until then.
+    let mut cities: Vec<CityRuns> = Vec::new();
+    for round in 0..args.repeat {
+        for (i, &n) in args.buildings.iter().enumerate() {
+            if round == 0 {
+                cities.push(CityRuns::prepare(n, args, &pool)?);
+            }
+            let city = &mut cities[i];
+            let output = dir.path().join(format!("bench-{n}.pvs"));
+            let scene = city.scene.as_ref().expect("kept until the city's last run");
+            let run = pool.install(|| bake_once(scene, &output))?;
+            if args.repeat > 1 {
+                eprintln!(
+                    "bench: {n} buildings, run {} of {}: {:.2} s",
+                    round + 1,
+                    args.repeat,
+                    run.seconds
+                );
+            }
+            city.add(run)?;
+            if round + 1 == args.repeat {
+                city.scene = None;
+                let row = city.row(args.repeat);
+                print_row(&row, baseline.as_ref(), args.json);
+                rows.push(row);
+            }
+        }
+    }
+    print_scaling(&rows, args.json);
+    if let Some(path) = &args.save {
+        let saved = Saved {
+            tool_version: env!("CARGO_PKG_VERSION").to_string(),
+            seed: args.seed,
+            threads: pool.current_num_threads(),
+            rows,
+        };
+        let text = serde_json::to_string_pretty(&saved).expect("figures serialise");
+        crate::atomic::write_atomically(path, text.as_bytes())?;
+    }
+    Ok(0)
+}
+
+/// A generated city being measured: its scene (until its last run), the
+/// time it took to prepare, and its runs so far.
+struct CityRuns {
+    buildings: usize,
+    scene: Option<crate::prepare::Scene>,
+    prepare_seconds: f64,
+    runs: Vec<Run>,
+    /// The peak as the first bake leaves it: later runs can raise the
+    /// process's high-water mark by how the allocator reuses what the first
+    /// one freed.
+    peak_after_first: Option<u64>,
+}
+
+impl CityRuns {
+    /// Generate the city of `n` buildings and prepare its scene.
+    fn prepare(n: usize, args: &BenchArgs, pool: &rayon::ThreadPool) -> Result<Self> {
         let text = crate::generate::generate_geojson_styled(
             &crate::generate::GenerateParams {
                 buildings: n,
@@ -262,46 +326,57 @@ pub fn run(args: &BenchArgs) -> Result<i32> {
         )?;
         let t = Instant::now();
         let scene = pool.install(|| prepare(city, &Settings::default()))?;
-        let prepare_seconds = t.elapsed().as_secs_f64();
-        let output = dir.path().join(format!("bench-{n}.pvs"));
-        let mut runs = Vec::new();
-        // The peak as one bake leaves it: later runs can raise the process's
-        // high-water mark by how the allocator reuses what the first freed.
-        let mut peak_after_first = None;
-        for _ in 0..args.repeat {
-            let run = pool.install(|| bake_once(&scene, &output))?;
-            if runs.is_empty() {
-                peak_after_first = crate::bake::peak_memory_bytes();
-            }
-            if let Some(first) = runs.first().map(|r: &Run| r.digest)
-                && first != run.digest
-            {
+        Ok(CityRuns {
+            buildings: n,
+            scene: Some(scene),
+            prepare_seconds: t.elapsed().as_secs_f64(),
+            runs: Vec::new(),
+            peak_after_first: None,
+        })
+    }
+
+    /// Keep one more run; every run must have written the first one's bytes.
+    fn add(&mut self, run: Run) -> Result<()> {
+        match self.runs.first() {
+            None => self.peak_after_first = crate::bake::peak_memory_bytes(),
+            Some(first) if first.digest != run.digest => {
                 return Err(crate::Error::mismatch(format!(
-                    "bench: two bakes of the generated {n}-building city wrote different bytes"
+                    "bench: two bakes of the generated {}-building city wrote different bytes",
+                    self.buildings
                 )));
             }
-            runs.push(run);
+            Some(_) => {}
         }
-        let (fastest, slowest) = runs.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), r| {
-            (lo.min(r.seconds), hi.max(r.seconds))
-        });
-        runs.sort_by(|a, b| a.seconds.total_cmp(&b.seconds));
-        let median = runs.swap_remove((runs.len() - 1) / 2);
-        let (bake_seconds, stats, written) = (median.seconds, median.stats, median.written);
+        self.runs.push(run);
+        Ok(())
+    }
+
+    /// The figures of the run of median wall time, with the spread of all.
+    fn row(&mut self, repeat: u32) -> Row {
+        let (fastest, slowest) = self
+            .runs
+            .iter()
+            .fold((f64::INFINITY, 0.0f64), |(lo, hi), r| {
+                (lo.min(r.seconds), hi.max(r.seconds))
+            });
+        self.runs.sort_by(|a, b| a.seconds.total_cmp(&b.seconds));
+        let median = &self.runs[(self.runs.len() - 1) / 2];
+        let (bake_seconds, stats, written) = (median.seconds, &median.stats, &median.written);
         let cells = stats.cells.max(1) as f64;
-        let row = Row {
-            buildings: n,
+        let cpu_seconds = median.cpu_seconds.unwrap_or(0.0);
+        Row {
+            buildings: self.buildings,
             cells: stats.cells,
             samples: stats.samples,
-            prepare_seconds,
+            prepare_seconds: self.prepare_seconds,
             bake_seconds,
             cells_per_second: stats.cells as f64 / bake_seconds,
             micros_per_cell: 1e6 * bake_seconds / cells,
-            runs: args.repeat,
+            runs: repeat,
             bake_seconds_min: fastest,
             bake_seconds_max: slowest,
-            cpu_seconds: median.cpu_seconds.unwrap_or(0.0),
-            cpu_micros_per_cell: 1e6 * median.cpu_seconds.unwrap_or(0.0) / cells,
+            cpu_seconds,
+            cpu_micros_per_cell: 1e6 * cpu_seconds / cells,
             visible_pairs_per_second: stats.mean_visible * stats.cells as f64 / bake_seconds,
             mean_visible: stats.mean_visible,
             max_visible: stats.max_visible,
@@ -310,65 +385,58 @@ pub fn run(args: &BenchArgs) -> Result<i32> {
             bytes_per_cell: written.file_bytes as f64 / cells,
             raw_bitset_bytes_per_cell: written.raw_bitset_bytes as f64 / cells,
             rle_bitset_bytes_per_cell: written.rle_bitset_bytes as f64 / cells,
-            peak_memory_bytes_so_far: peak_after_first,
-        };
-        if args.json {
-            println!("{}", serde_json::to_string(&row).expect("row serialises"));
-        } else {
+            peak_memory_bytes_so_far: self.peak_after_first,
+        }
+    }
+}
+
+/// Print a city's row (a table line or a JSON object) and, with a
+/// baseline, its figures beside the baseline's.
+fn print_row(row: &Row, baseline: Option<&Saved>, json: bool) {
+    if json {
+        println!("{}", serde_json::to_string(row).expect("row serialises"));
+    } else {
+        println!(
+            "{:>9} {:>8} {:>9.2} {:>9.2} {:>9.2} {:>9.0} {:>10.0} {:>9.0} {:>9.1} {:>7.1}% {:>7.1} {:>9.0}",
+            row.buildings,
+            row.cells,
+            row.prepare_seconds,
+            row.bake_seconds,
+            row.cpu_seconds,
+            row.cells_per_second,
+            row.micros_per_cell,
+            row.visible_pairs_per_second,
+            row.mean_visible,
+            100.0 * row.culled_fraction,
+            row.bytes_per_cell,
+            row.peak_memory_bytes_so_far.unwrap_or(0) as f64 / 1048576.0
+        );
+        if row.runs > 1 {
             println!(
-                "{:>9} {:>8} {:>9.2} {:>9.2} {:>9.2} {:>9.0} {:>10.0} {:>9.0} {:>9.1} {:>7.1}% {:>7.1} {:>9.0}",
-                row.buildings,
-                row.cells,
-                row.prepare_seconds,
-                row.bake_seconds,
-                row.cpu_seconds,
-                row.cells_per_second,
-                row.micros_per_cell,
-                row.visible_pairs_per_second,
-                row.mean_visible,
-                100.0 * row.culled_fraction,
-                row.bytes_per_cell,
-                row.peak_memory_bytes_so_far.unwrap_or(0) as f64 / 1048576.0
+                "{:>9} {} runs: bake s {:.2} (median), {:.2} to {:.2}",
+                "", row.runs, row.bake_seconds, row.bake_seconds_min, row.bake_seconds_max
             );
-            if row.runs > 1 {
-                println!(
-                    "{:>9} {} runs: bake s {:.2} (median), {:.2} to {:.2}",
-                    "", row.runs, row.bake_seconds, row.bake_seconds_min, row.bake_seconds_max
-                );
-            }
         }
-        if let Some(base) = &baseline {
-            if args.json {
-                let old = base.rows.iter().find(|r| r.buildings == row.buildings);
-                let ratios: serde_json::Map<String, serde_json::Value> = COMPARED
-                    .iter()
-                    .filter_map(|&(name, _)| {
-                        let a = figure(old?, name);
-                        (a != 0.0).then(|| (name.to_string(), (figure(&row, name) / a).into()))
-                    })
-                    .collect();
-                println!(
-                    "{}",
-                    serde_json::json!({ "buildings": row.buildings, "baseline": old, "ratio_now_to_baseline": ratios })
-                );
-            } else {
-                print_comparison(base, &row);
-            }
-        }
-        rows.push(row);
     }
-    print_scaling(&rows, args.json);
-    if let Some(path) = &args.save {
-        let saved = Saved {
-            tool_version: env!("CARGO_PKG_VERSION").to_string(),
-            seed: args.seed,
-            threads: pool.current_num_threads(),
-            rows,
-        };
-        let text = serde_json::to_string_pretty(&saved).expect("figures serialise");
-        crate::atomic::write_atomically(path, text.as_bytes())?;
+    let Some(base) = baseline else {
+        return;
+    };
+    if json {
+        let old = base.rows.iter().find(|r| r.buildings == row.buildings);
+        let ratios: serde_json::Map<String, serde_json::Value> = COMPARED
+            .iter()
+            .filter_map(|&(name, _)| {
+                let a = figure(old?, name);
+                (a != 0.0).then(|| (name.to_string(), (figure(row, name) / a).into()))
+            })
+            .collect();
+        println!(
+            "{}",
+            serde_json::json!({ "buildings": row.buildings, "baseline": old, "ratio_now_to_baseline": ratios })
+        );
+    } else {
+        print_comparison(base, row);
     }
-    Ok(0)
 }
 
 /// One bake of a prepared city, as `bench` times it.

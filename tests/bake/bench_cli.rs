@@ -208,3 +208,51 @@ fn bench_repeats_a_bake_and_reports_the_median_run_with_its_spread() {
     assert!(stderr(&out).contains("--repeat"), "{}", stderr(&out));
     assert!(out.stdout.is_empty());
 }
+
+#[test]
+fn bench_repeats_in_rounds_of_every_city() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = citypvs(
+        dir.path(),
+        &[
+            "bench",
+            "--buildings",
+            "30,60",
+            "--seed",
+            "3",
+            "--threads",
+            "1",
+            "--json",
+            "--repeat",
+            "2",
+        ],
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    // Each city once a round, in the order given.
+    let runs: Vec<String> = stderr(&out)
+        .lines()
+        .filter_map(|l| l.strip_prefix("bench: "))
+        .map(|l| l.split(':').next().unwrap().to_string())
+        .collect();
+    assert_eq!(
+        runs,
+        [
+            "30 buildings, run 1 of 2",
+            "60 buildings, run 1 of 2",
+            "30 buildings, run 2 of 2",
+            "60 buildings, run 2 of 2",
+        ],
+        "{}",
+        stderr(&out)
+    );
+    let rows: Vec<serde_json::Value> = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(rows.len(), 3, "{rows:?}");
+    assert_eq!(
+        (rows[0]["buildings"].clone(), rows[1]["buildings"].clone()),
+        (30.into(), 60.into())
+    );
+    assert!(rows[..2].iter().all(|r| r["runs"] == 2), "{rows:?}");
+}
