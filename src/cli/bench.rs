@@ -276,7 +276,7 @@ pub fn run(args: &BenchArgs) -> Result<i32> {
             city.add(run)?;
             if round + 1 == args.repeat {
                 city.scene = None;
-                let row = city.row(args.repeat);
+                let row = city.row();
                 print_row(&row, baseline.as_ref(), args.json);
                 rows.push(row);
             }
@@ -352,14 +352,9 @@ impl CityRuns {
     }
 
     /// The figures of the run of median wall time, with the spread of all.
-    fn row(&mut self, repeat: u32) -> Row {
-        let (fastest, slowest) = self
-            .runs
-            .iter()
-            .fold((f64::INFINITY, 0.0f64), |(lo, hi), r| {
-                (lo.min(r.seconds), hi.max(r.seconds))
-            });
+    fn row(&mut self) -> Row {
         self.runs.sort_by(|a, b| a.seconds.total_cmp(&b.seconds));
+        let (fastest, slowest) = (&self.runs[0], &self.runs[self.runs.len() - 1]);
         let median = &self.runs[(self.runs.len() - 1) / 2];
         let (bake_seconds, stats, written) = (median.seconds, &median.stats, &median.written);
         let cells = stats.cells.max(1) as f64;
@@ -372,9 +367,9 @@ impl CityRuns {
             bake_seconds,
             cells_per_second: stats.cells as f64 / bake_seconds,
             micros_per_cell: 1e6 * bake_seconds / cells,
-            runs: repeat,
-            bake_seconds_min: fastest,
-            bake_seconds_max: slowest,
+            runs: self.runs.len() as u32,
+            bake_seconds_min: fastest.seconds,
+            bake_seconds_max: slowest.seconds,
             cpu_seconds,
             cpu_micros_per_cell: 1e6 * cpu_seconds / cells,
             visible_pairs_per_second: stats.mean_visible * stats.cells as f64 / bake_seconds,
@@ -445,8 +440,9 @@ struct Run {
     cpu_seconds: Option<f64>,
     stats: crate::bake::BakeStats,
     written: crate::pvs::WriteStats,
-    /// SHA-256 of the file written, so that repeated runs can be checked
-    /// to write the same bytes.
+    /// The file's own checksum (its last 32 bytes, the SHA-256 of the rest;
+    /// docs/FORMAT.md), so that repeated runs can be checked to write the
+    /// same bytes.
     digest: [u8; 32],
 }
 
@@ -471,17 +467,32 @@ fn bake_once(scene: &crate::prepare::Scene, output: &std::path::Path) -> Result<
     let seconds = t.elapsed().as_secs_f64();
     let cpu_seconds = cpu.zip(crate::bake::cpu_seconds()).map(|(a, b)| b - a);
     let written = baked.part.write_pvs(output)?;
-    let bytes = std::fs::read(output)
-        .map_err(|e| crate::Error::io(format!("{}: cannot read back: {e}", output.display())))?;
+    let digest = trailing_checksum(output)?;
     remove_checkpoint(output)?;
     std::fs::remove_file(output)
         .map_err(|e| crate::Error::io(format!("{}: cannot remove: {e}", output.display())))?;
-    use sha2::Digest;
     Ok(Run {
         seconds,
         cpu_seconds,
         stats: baked.stats,
         written,
-        digest: sha2::Sha256::digest(&bytes).into(),
+        digest,
     })
+}
+
+/// The last 32 bytes of a `.pvs` file: the SHA-256 of everything before
+/// them, so two files with the same checksum hold the same bytes.
+fn trailing_checksum(path: &std::path::Path) -> Result<[u8; 32]> {
+    use std::io::{Read, Seek, SeekFrom};
+    let fail = |e: std::io::Error| {
+        crate::Error::io(format!(
+            "{}: cannot read back its checksum: {e}",
+            path.display()
+        ))
+    };
+    let mut file = std::fs::File::open(path).map_err(fail)?;
+    file.seek(SeekFrom::End(-32)).map_err(fail)?;
+    let mut digest = [0u8; 32];
+    file.read_exact(&mut digest).map_err(fail)?;
+    Ok(digest)
 }

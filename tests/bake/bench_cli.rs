@@ -15,11 +15,17 @@ fn json_lines(dir: &std::path::Path, args: &[&str]) -> Vec<serde_json::Value> {
         .collect()
 }
 
-/// `bench` of the 60-building generated city of seed 3, then `extra`.
-fn bench_small<'a>(extra: &[&'a str]) -> Vec<&'a str> {
-    let mut args = vec!["bench", "--buildings", "60", "--seed", "3"];
+/// `bench` of the generated cities of seed 3 and the given sizes, then
+/// `extra`.
+fn bench_of<'a>(buildings: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
+    let mut args = vec!["bench", "--buildings", buildings, "--seed", "3"];
     args.extend_from_slice(extra);
     args
+}
+
+/// `bench` of the 60-building generated city of seed 3, then `extra`.
+fn bench_small<'a>(extra: &[&'a str]) -> Vec<&'a str> {
+    bench_of("60", extra)
 }
 
 #[test]
@@ -127,16 +133,7 @@ fn bench_sets_each_larger_city_beside_the_smallest() {
     let dir = tempfile::tempdir().unwrap();
     let lines = json_lines(
         dir.path(),
-        &[
-            "bench",
-            "--buildings",
-            "60,30",
-            "--seed",
-            "3",
-            "--threads",
-            "1",
-            "--json",
-        ],
+        &bench_of("60,30", &["--threads", "1", "--json"]),
     );
     assert_eq!(lines.len(), 3, "{lines:?}");
     let (big, small, scaling) = (&lines[0], &lines[1], &lines[2]);
@@ -214,18 +211,7 @@ fn bench_repeats_in_rounds_of_every_city() {
     let dir = tempfile::tempdir().unwrap();
     let out = citypvs(
         dir.path(),
-        &[
-            "bench",
-            "--buildings",
-            "30,60",
-            "--seed",
-            "3",
-            "--threads",
-            "1",
-            "--json",
-            "--repeat",
-            "2",
-        ],
+        &bench_of("30,60", &["--threads", "1", "--json", "--repeat", "2"]),
     );
     assert!(out.status.success(), "{}", stderr(&out));
     // Each city once a round, in the order given.
