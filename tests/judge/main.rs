@@ -9,4 +9,5 @@ mod verify_bake;
 mod verify_cli;
 mod verify_hostile;
 mod verify_judge;
+mod verify_odd;
 mod verify_speed;
