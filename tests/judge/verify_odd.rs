@@ -75,27 +75,22 @@ type Ring = Vec<(f64, f64)>;
 fn footprints(s: &Shape) -> Vec<(Vec<Ring>, f64)> {
     let lerp = |lo: f64, hi: f64, t: f64| lo + (hi - lo) * t;
     let one = |ring: Ring, h: f64| vec![(vec![placed(&ring, s.x, s.y, s.turn)], h)];
+    // A rectangle with its width, depth and height drawn from these ranges.
+    let boxed = |w: [f64; 2], d: [f64; 2], h: [f64; 2]| {
+        one(
+            rect(lerp(w[0], w[1], s.a), lerp(d[0], d[1], s.b)),
+            lerp(h[0], h[1], s.height),
+        )
+    };
     match s.kind {
         // Smaller than 2 eps: eroded to nothing, never an occluder.
-        0 => one(
-            rect(lerp(0.1, 1.5, s.a), lerp(0.1, 1.5, s.b)),
-            lerp(1.0, 40.0, s.height),
-        ),
+        0 => boxed([0.1, 1.5], [0.1, 1.5], [1.0, 40.0]),
         // A thin wall.
-        1 => one(
-            rect(lerp(0.3, 1.2, s.a), lerp(10.0, 60.0, s.b)),
-            lerp(3.0, 50.0, s.height),
-        ),
+        1 => boxed([0.3, 1.2], [10.0, 60.0], [3.0, 50.0]),
         // A tower.
-        2 => one(
-            rect(lerp(4.0, 14.0, s.a), lerp(4.0, 14.0, s.b)),
-            lerp(60.0, 300.0, s.height),
-        ),
+        2 => boxed([4.0, 14.0], [4.0, 14.0], [60.0, 300.0]),
         // Lower than most eyes.
-        3 => one(
-            rect(lerp(4.0, 25.0, s.a), lerp(4.0, 25.0, s.b)),
-            lerp(0.3, 2.0, s.height),
-        ),
+        3 => boxed([4.0, 25.0], [4.0, 25.0], [0.3, 2.0]),
         // A courtyard block.
         4 => {
             let (w, d) = (lerp(18.0, 40.0, s.a), lerp(18.0, 40.0, s.b));
@@ -144,10 +139,7 @@ fn footprints(s: &Shape) -> Vec<(Vec<Ring>, f64)> {
         }
         // A part lifted off the ground (its min_height is written by
         // `city_geojson`): seen, never an occluder.
-        8 => one(
-            rect(lerp(3.0, 30.0, s.a), lerp(3.0, 12.0, s.b)),
-            lerp(4.0, 30.0, s.height),
-        ),
+        8 => boxed([3.0, 30.0], [3.0, 12.0], [4.0, 30.0]),
         // Two buildings with a gap between them, from a hair to a street.
         _ => {
             let gap = [0.05, 0.3, 0.49, 0.51, 0.7, 1.0, 1.9, 2.1, 3.0][(s.a * 9.0) as usize % 9];
