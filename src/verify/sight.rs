@@ -29,6 +29,7 @@ use super::envelope::{Envelope, Line};
 use crate::model::{
     Building, Rect, distance_to_segment, multipolygon_bounds, point_in_multipolygon, polygon_edges,
 };
+use crate::pvs::mesh::SNAP_DISTANCE;
 
 /// Extra wedge boundaries, evenly spaced, so that no wedge is wider than
 /// 2 pi / FAN_DIRECTIONS (the `s` parameter stays small).
@@ -40,9 +41,12 @@ const MIN_WEDGE: f64 = 1e-11;
 /// An elevation for an edge whose line passes through the viewpoint.
 const HUGE_ELEVATION: f64 = 1e30;
 /// A viewpoint inside an occluding building by at most this much (metres)
-/// is moved out of it: cell edges run along footprint outlines, and the
-/// two may differ by rounding.
-pub const MAX_SNAP: f64 = 1e-3;
+/// is moved out of it. Cell edges run along footprint outlines, and a file
+/// stores cell corners on its grid of 1/256 m, so a cell may reach half a
+/// grid square's diagonal into a building ([`SNAP_DISTANCE`], 2.8 mm); its
+/// set must hold from every point that near its triangle (docs/METHOD.md,
+/// "Cell corners on a grid"). A micrometre more allows for rounding.
+pub const MAX_SNAP: f64 = SNAP_DISTANCE + 1e-6;
 /// How far outside the outline a moved viewpoint is put (metres).
 const SNAP_CLEARANCE: f64 = 1e-6;
 

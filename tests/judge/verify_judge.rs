@@ -297,6 +297,14 @@ fn viewpoints_a_rounding_error_inside_a_wall_are_moved_out() {
         }
         other => panic!("{other:?}"),
     }
+    // 2.5 mm inside (a cell corner put on the file's grid of 1/256 m may
+    // reach up to 2.8 mm into a building): judged from just outside it.
+    match judge.view(DVec3::new(5.0, 0.0025, 1.7), &mut scratch) {
+        View::Seen { from, .. } => {
+            assert!(from.y < 0.0 && from.y > -1e-5 && from.x == 5.0, "{from}")
+        }
+        other => panic!("{other:?}"),
+    }
     // 5 mm inside: refused.
     match judge.view(DVec3::new(5.0, 0.005, 1.7), &mut scratch) {
         View::InsideBuilding { building, depth } => {
