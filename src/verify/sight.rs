@@ -49,6 +49,10 @@ const HUGE_ELEVATION: f64 = 1e30;
 pub const MAX_SNAP: f64 = SNAP_DISTANCE + 1e-6;
 /// How far outside the outline a moved viewpoint is put (metres).
 const SNAP_CLEARANCE: f64 = 1e-6;
+/// Rings (evenly spaced out to [`MAX_SNAP`]) and points per ring searched
+/// for a free point near a viewpoint between buildings that touch.
+const FREE_RINGS: usize = 8;
+const FREE_DIRECTIONS: usize = 32;
 
 /// One building seen from a viewpoint, and a point of it that is seen.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -269,26 +273,48 @@ impl<'a> Judge<'a> {
             && point_in_multipolygon(p, &self.buildings[building].footprint)
     }
 
-    /// `p`, or a point just outside the occluding building(s) it lies in
-    /// if that is within [`MAX_SNAP`]; otherwise the building and the depth.
+    /// The occluding building `p` lies in, if any.
+    fn occupant(&self, p: DVec2) -> Option<usize> {
+        (0..self.buildings.len()).find(|&i| self.buildings[i].occludes && self.contains(i, p))
+    }
+
+    /// `p`, or a free point within [`MAX_SNAP`] of it when `p` lies in
+    /// occluding buildings: just outside the nearest outline, stepping out
+    /// of each building in turn, or, where buildings touch and stepping out
+    /// of one steps into the other, the first free point on rings around
+    /// `p` (nearest ring first). Otherwise the building `p` lies in and its
+    /// depth there.
     fn free_position(&self, p: DVec2) -> Result<DVec2, (u32, f64)> {
+        let Some(first) = self.occupant(p) else {
+            return Ok(p);
+        };
+        let (_, first_depth, _) = nearest_outline_point(&self.buildings[first], p);
+        let refused = Err((first as u32, first_depth));
+        if first_depth > MAX_SNAP {
+            return refused;
+        }
         let mut q = p;
         for _ in 0..4 {
-            let Some(b) = (0..self.buildings.len())
-                .find(|&i| self.buildings[i].occludes && self.contains(i, q))
-            else {
+            let Some(b) = self.occupant(q) else {
                 return Ok(q);
             };
             let (foot, depth, outward) = nearest_outline_point(&self.buildings[b], q);
             if q.distance(p) + depth > MAX_SNAP {
-                return Err((b as u32, depth));
+                break;
             }
             q = foot + outward * SNAP_CLEARANCE;
         }
-        let b = (0..self.buildings.len())
-            .find(|&i| self.buildings[i].occludes && self.contains(i, q))
-            .unwrap_or(0);
-        Err((b as u32, q.distance(p)))
+        for ring in 1..=FREE_RINGS {
+            let radius = MAX_SNAP * ring as f64 / FREE_RINGS as f64;
+            for k in 0..FREE_DIRECTIONS {
+                let angle = std::f64::consts::TAU * k as f64 / FREE_DIRECTIONS as f64;
+                let c = p + radius * DVec2::from_angle(angle);
+                if self.occupant(c).is_none() {
+                    return Ok(c);
+                }
+            }
+        }
+        refused
     }
 
     /// Sorted vertex azimuths plus the fan into `scratch.azimuths`, and in

@@ -316,6 +316,32 @@ fn viewpoints_a_rounding_error_inside_a_wall_are_moved_out() {
 }
 
 #[test]
+fn viewpoints_in_the_seam_of_touching_buildings_are_moved_to_free_space() {
+    // Two buildings sharing a wall, the street south of them. A viewpoint
+    // 0.1 mm inside the west one and 0.4 mm north of the street: stepping
+    // out of the west building steps into the east one and back; the
+    // judge takes a free point within 2.8 mm instead.
+    let city = vec![
+        block("west", 0.0, 0.0, 10.0, 10.0, 10.0),
+        block("east", 10.0, 0.0, 20.0, 10.0, 10.0),
+        block("opposite", 0.0, -20.0, 20.0, -10.0, 10.0),
+    ];
+    let judge = Judge::new(&city);
+    let p = DVec3::new(9.9999, 0.0004, 1.7);
+    match judge.view(p, &mut Scratch::default()) {
+        View::Seen {
+            from, sightings, ..
+        } => {
+            assert!(from.y <= 0.0, "{from} is not in the street");
+            assert!(from.truncate().distance(p.truncate()) <= 2.8e-3, "{from}");
+            let seen: Vec<u32> = sightings.iter().map(|s| s.building).collect();
+            assert_eq!(seen, [0, 1, 2]);
+        }
+        other => panic!("{other:?}"),
+    }
+}
+
+#[test]
 fn overlapping_footprints_are_judged_as_solids() {
     // An outline with a tower part and a low part inside it (OpenStreetMap
     // style), seen from outside.
