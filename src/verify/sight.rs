@@ -50,9 +50,11 @@ pub const MAX_SNAP: f64 = SNAP_DISTANCE + 1e-6;
 /// How far outside the outline a moved viewpoint is put (metres).
 const SNAP_CLEARANCE: f64 = 1e-6;
 /// Rings (evenly spaced out to [`MAX_SNAP`]) and points per ring searched
-/// for a free point near a viewpoint between buildings that touch.
-const FREE_RINGS: usize = 8;
-const FREE_DIRECTIONS: usize = 32;
+/// for a free point near a viewpoint between buildings that touch: a point
+/// every 0.05 mm or less, so that cracks of a tenth of a millimetre between
+/// misaligned walls are found.
+const FREE_RINGS: usize = 64;
+const FREE_DIRECTIONS: usize = 512;
 
 /// One building seen from a viewpoint, and a point of it that is seen.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -304,12 +306,20 @@ impl<'a> Judge<'a> {
             }
             q = foot + outward * SNAP_CLEARANCE;
         }
+        // Only the buildings within reach can hold a point of the rings.
+        let reach = Rect {
+            min: p - DVec2::splat(MAX_SNAP),
+            max: p + DVec2::splat(MAX_SNAP),
+        };
+        let near: Vec<usize> = (0..self.buildings.len())
+            .filter(|&i| self.buildings[i].occludes && self.bounds[i].intersects(&reach))
+            .collect();
         for ring in 1..=FREE_RINGS {
             let radius = MAX_SNAP * ring as f64 / FREE_RINGS as f64;
             for k in 0..FREE_DIRECTIONS {
                 let angle = std::f64::consts::TAU * k as f64 / FREE_DIRECTIONS as f64;
                 let c = p + radius * DVec2::from_angle(angle);
-                if self.occupant(c).is_none() {
+                if !near.iter().any(|&i| self.contains(i, c)) {
                     return Ok(c);
                 }
             }
