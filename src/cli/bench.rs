@@ -339,7 +339,7 @@ impl CityRuns {
     fn add(&mut self, run: Run) -> Result<()> {
         match self.runs.first() {
             None => self.peak_after_first = crate::bake::peak_memory_bytes(),
-            Some(first) if first.digest != run.digest => {
+            Some(first) if first.written.checksum != run.written.checksum => {
                 return Err(crate::Error::mismatch(format!(
                     "bench: two bakes of the generated {}-building city wrote different bytes",
                     self.buildings
@@ -439,11 +439,9 @@ struct Run {
     seconds: f64,
     cpu_seconds: Option<f64>,
     stats: crate::bake::BakeStats,
+    /// Its sizes and checksum, with which repeated runs are checked to
+    /// write the same bytes.
     written: crate::pvs::WriteStats,
-    /// The file's own checksum (its last 32 bytes, the SHA-256 of the rest;
-    /// docs/FORMAT.md), so that repeated runs can be checked to write the
-    /// same bytes.
-    digest: [u8; 32],
 }
 
 /// The bake `citypvs bake` runs (the engine, the sets kept compressed with
@@ -467,7 +465,6 @@ fn bake_once(scene: &crate::prepare::Scene, output: &std::path::Path) -> Result<
     let seconds = t.elapsed().as_secs_f64();
     let cpu_seconds = cpu.zip(crate::bake::cpu_seconds()).map(|(a, b)| b - a);
     let written = baked.part.write_pvs(output)?;
-    let digest = trailing_checksum(output)?;
     remove_checkpoint(output)?;
     std::fs::remove_file(output)
         .map_err(|e| crate::Error::io(format!("{}: cannot remove: {e}", output.display())))?;
@@ -476,23 +473,5 @@ fn bake_once(scene: &crate::prepare::Scene, output: &std::path::Path) -> Result<
         cpu_seconds,
         stats: baked.stats,
         written,
-        digest,
     })
-}
-
-/// The last 32 bytes of a `.pvs` file: the SHA-256 of everything before
-/// them, so two files with the same checksum hold the same bytes.
-fn trailing_checksum(path: &std::path::Path) -> Result<[u8; 32]> {
-    use std::io::{Read, Seek, SeekFrom};
-    let fail = |e: std::io::Error| {
-        crate::Error::io(format!(
-            "{}: cannot read back its checksum: {e}",
-            path.display()
-        ))
-    };
-    let mut file = std::fs::File::open(path).map_err(fail)?;
-    file.seek(SeekFrom::End(-32)).map_err(fail)?;
-    let mut digest = [0u8; 32];
-    file.read_exact(&mut digest).map_err(fail)?;
-    Ok(digest)
 }

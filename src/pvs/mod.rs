@@ -114,6 +114,10 @@ pub struct WriteStats {
     pub object_bytes: u64,
     /// Bytes of the vertex table and the triangles' corner indices.
     pub mesh_bytes: u64,
+    /// The file's checksum, its last 32 bytes (the SHA-256 of all before
+    /// them): two files with the same checksum hold the same bytes.
+    #[serde(skip)]
+    pub checksum: [u8; 32],
 }
 
 /// The first eight bytes of every `.pvs` file.

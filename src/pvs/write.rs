@@ -486,6 +486,7 @@ impl PvsWriter {
         self.out.extend_from_slice(&digest);
         self.stats.record_bytes = blocks_len;
         self.stats.file_bytes = file_bytes;
+        self.stats.checksum = digest.into();
         Ok((self.out, self.stats))
     }
 

@@ -295,9 +295,20 @@ impl<'a> Judge<'a> {
         if first_depth > MAX_SNAP {
             return refused;
         }
+        // Every point tried below lies within MAX_SNAP (and a clearance) of
+        // `p`, so only the occluding buildings whose bounds meet that square
+        // can hold it.
+        let reach = Rect {
+            min: p - DVec2::splat(MAX_SNAP + SNAP_CLEARANCE),
+            max: p + DVec2::splat(MAX_SNAP + SNAP_CLEARANCE),
+        };
+        let near: Vec<usize> = (0..self.buildings.len())
+            .filter(|&i| self.buildings[i].occludes && self.bounds[i].intersects(&reach))
+            .collect();
+        let occupant_near = |q: DVec2| near.iter().copied().find(|&i| self.contains(i, q));
         let mut q = p;
         for _ in 0..4 {
-            let Some(b) = self.occupant(q) else {
+            let Some(b) = occupant_near(q) else {
                 return Ok(q);
             };
             let (foot, depth, outward) = nearest_outline_point(&self.buildings[b], q);
@@ -306,20 +317,12 @@ impl<'a> Judge<'a> {
             }
             q = foot + outward * SNAP_CLEARANCE;
         }
-        // Only the buildings within reach can hold a point of the rings.
-        let reach = Rect {
-            min: p - DVec2::splat(MAX_SNAP),
-            max: p + DVec2::splat(MAX_SNAP),
-        };
-        let near: Vec<usize> = (0..self.buildings.len())
-            .filter(|&i| self.buildings[i].occludes && self.bounds[i].intersects(&reach))
-            .collect();
         for ring in 1..=FREE_RINGS {
             let radius = MAX_SNAP * ring as f64 / FREE_RINGS as f64;
             for k in 0..FREE_DIRECTIONS {
                 let angle = std::f64::consts::TAU * k as f64 / FREE_DIRECTIONS as f64;
                 let c = p + radius * DVec2::from_angle(angle);
-                if !near.iter().any(|&i| self.contains(i, c)) {
+                if occupant_near(c).is_none() {
                     return Ok(c);
                 }
             }

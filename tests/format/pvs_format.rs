@@ -90,6 +90,8 @@ fn round_trip_equals_the_data_for_every_frame_kind() {
         let path = dir.path().join(format!("t{k}.pvs"));
         let stats = write_pvs(&path, &data).unwrap();
         assert_eq!(stats.file_bytes, std::fs::metadata(&path).unwrap().len());
+        let bytes = std::fs::read(&path).unwrap();
+        assert_eq!(stats.checksum[..], bytes[bytes.len() - 32..]);
         let reader = PvsReader::open(&path).unwrap();
         assert_eq!(read_back(&reader), data);
         assert_eq!(reader.file_bytes(), stats.file_bytes);

@@ -7,7 +7,7 @@
 
 use std::path::Path;
 
-use citypvs::bake::bake;
+use citypvs::bake::{BakeStats, bake};
 use citypvs::generate::{GenerateParams, generate_geojson};
 use citypvs::input::{City, InputOptions, read_city, read_city_bytes};
 use citypvs::model::Polygon;
@@ -35,20 +35,12 @@ fn bake_and_judge(
         ..Default::default()
     })
     .expect("settings");
-    let scene = prepare(city, &settings).expect("prepare");
-    let (data, stats, _) = bake(&scene, &|_| {}).expect("bake");
     let options = VerifyOptions {
         cells: cells_to_check(cells),
         samples: 64,
         seed,
     };
-    let report = verify(
-        &scene.city.buildings,
-        &data.cells,
-        scene.settings.eye_height,
-        &data.visible,
-        &options,
-    );
+    let (stats, report) = bake_and_verify(city, &settings, &options);
     eprintln!(
         "{name}: {} cells, mean PVS {:.1}, culled {:.3}; judged {} cells x 64 points: {} violations, \
          tightness mean {:.2} worst {:.2}, seen fraction {:.3}, {:.1} s",
@@ -69,6 +61,25 @@ fn bake_and_judge(
         &report.violations[..report.violations.len().min(10)]
     );
     report
+}
+
+/// Prepare and bake `city` with `settings` through the library, and judge
+/// the result.
+pub fn bake_and_verify(
+    city: City,
+    settings: &citypvs::Settings,
+    options: &VerifyOptions,
+) -> (BakeStats, VerifyReport) {
+    let scene = prepare(city, settings).expect("prepare");
+    let (data, stats, _) = bake(&scene, &|_| {}).expect("bake");
+    let report = verify(
+        &scene.city.buildings,
+        &data.cells,
+        scene.settings.eye_height,
+        &data.visible,
+        options,
+    );
+    (stats, report)
 }
 
 #[test]

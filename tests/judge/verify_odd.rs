@@ -10,10 +10,9 @@
 //! CI judges 10 cities; `CITYPVS_ODD_CASES=500 cargo test --release --test
 //! judge verify_odd` judges more.
 
-use citypvs::bake::bake;
+use crate::verify_bake::bake_and_verify;
 use citypvs::input::{InputOptions, read_city_bytes};
-use citypvs::prepare::prepare;
-use citypvs::verify::{VerifyOptions, verify};
+use citypvs::verify::VerifyOptions;
 use citypvs::{RawSettings, Settings};
 use proptest::prelude::*;
 
@@ -267,15 +266,8 @@ proptest! {
         let options = InputOptions { metric: true, ..InputOptions::default() };
         let city = read_city_bytes(text.as_bytes(), "odd.geojson", &options)
             .expect("the random city reads");
-        let scene = prepare(city, &settings).expect("prepare");
-        let (data, _, _) = bake(&scene, &|_| {}).expect("bake");
-        let report = verify(
-            &scene.city.buildings,
-            &data.cells,
-            scene.settings.eye_height,
-            &data.visible,
-            &VerifyOptions { cells: None, samples: 24, seed },
-        );
+        let options = VerifyOptions { cells: None, samples: 24, seed };
+        let (_, report) = bake_and_verify(city, &settings, &options);
         prop_assert!(report.cells_checked > 0, "no cell was judged");
         prop_assert!(
             report.violations.is_empty(),
