@@ -3,9 +3,15 @@
 //! member ways, heights from `height` / `building:levels` / `roof:levels`,
 //! and lifted parts (`min_height`, `building:min_level`) kept as objects
 //! that do not occlude. Ids are `"w<way id>"` and `"r<relation id>"`.
+//!
+//! A PBF file is compressed, so a small hostile file can decode to a
+//! thousand times its size: what is kept from it is bounded by the file's
+//! size ([`Budget`]), only the tags read are copied, and a panic inside the
+//! PBF decoder becomes an error ([`guarded`]).
 
-use std::collections::{BTreeMap, HashMap, HashSet};
+use std::collections::{BTreeMap, BTreeSet, HashMap, HashSet};
 use std::io::Cursor;
+use std::panic::{AssertUnwindSafe, catch_unwind};
 
 use osmpbf::{Element, ElementReader, RelMemberType};
 
@@ -25,7 +31,8 @@ enum Feature {
     },
     Relation {
         id: i64,
-        members: Vec<(i64, String)>,
+        /// Member ways: id, and whether its role is `inner`.
+        members: Vec<(i64, bool)>,
         tags: Tags,
     },
 }
@@ -54,19 +61,130 @@ fn is_building(tags: &Tags) -> bool {
     is_yes(tags, "building") || is_yes(tags, "building:part")
 }
 
+/// The keys of the tags citypvs reads; every other tag is passed over.
+const KEYS_READ: [&str; 8] = [
+    "building",
+    "building:part",
+    "building:levels",
+    "building:min_level",
+    "height",
+    "min_height",
+    "roof:levels",
+    "type",
+];
+
+/// Longest tag value copied; a longer one (no height, level count or
+/// building type is anywhere near it) is kept as a note of its length,
+/// which reads as a building type that is neither `no` nor open-sided and
+/// as a length or number that does not parse.
+const MAX_VALUE_BYTES: usize = 256;
+
+/// The tags of [`KEYS_READ`] (the last of a repeated key wins).
 fn collect_tags<'a>(tags: impl Iterator<Item = (&'a str, &'a str)>) -> Tags {
-    tags.map(|(k, v)| (k.to_string(), v.to_string())).collect()
+    let mut kept = Tags::new();
+    for (k, v) in tags {
+        if KEYS_READ.contains(&k) {
+            let value = if v.len() <= MAX_VALUE_BYTES {
+                v.to_string()
+            } else {
+                format!("({} bytes, not read)", v.len())
+            };
+            kept.insert(k.to_string(), value);
+        }
+    }
+    kept
 }
 
-/// Run `f` over every element, turning reader errors into one clear message.
+/// Run `f` over every element, turning reader errors (and panics of the
+/// reader, see [`guarded`]) into one clear message.
 fn each_element(bytes: &[u8], name: &str, f: impl FnMut(Element<'_>)) -> Result<()> {
-    ElementReader::new(Cursor::new(bytes))
-        .for_each(f)
-        .map_err(|e| {
+    let corrupt = |why: String| {
+        Error::input(format!(
+            "{name}: the OSM PBF file is truncated or corrupt ({why})"
+        ))
+    };
+    guarded(|| ElementReader::new(Cursor::new(bytes)).for_each(f))
+        .map_err(corrupt)?
+        .map_err(|e| corrupt(e.to_string()))
+}
+
+thread_local! {
+    /// Set while [`guarded`] runs on this thread: its panics are caught
+    /// and reported as errors, so the panic hook stays quiet about them.
+    static GUARDED: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// Run `f`, turning a panic into `Err` with the panic's message. The PBF
+/// decoder panics on some malformed input (a relation member whose type
+/// is not one of the format's three, for one); a corrupt file must give an
+/// error, not end the process. The first call installs a panic hook that
+/// stays silent for panics caught here and hands every other panic to the
+/// hook that was there before.
+fn guarded<T>(f: impl FnOnce() -> T) -> std::result::Result<T, String> {
+    static QUIET_HOOK: std::sync::Once = std::sync::Once::new();
+    QUIET_HOOK.call_once(|| {
+        let previous = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            if !GUARDED.with(|g| g.get()) {
+                previous(info);
+            }
+        }));
+    });
+    let was = GUARDED.with(|g| g.replace(true));
+    let result = catch_unwind(AssertUnwindSafe(f));
+    GUARDED.with(|g| g.set(was));
+    result.map_err(|panic| {
+        let message = panic
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| panic.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "the decoder failed".to_string());
+        format!("the PBF decoder failed: {message}")
+    })
+}
+
+/// How many node references and relation members a file may make the
+/// reader keep, per byte of the file. A real extract keeps well under one
+/// per byte (every reference costs at least a byte of compressed data);
+/// a decompression bomb, or a relation listing one long way a million
+/// times, would keep thousands.
+const REFERENCES_PER_BYTE: usize = 16;
+
+/// The least [`Budget`], whatever the file's size.
+const MIN_REFERENCES: usize = 1 << 20;
+
+/// What the reader may still keep of a file: node references of building
+/// ways and member ways, relation members, and the nodes of assembled
+/// relation rings, counted together.
+struct Budget<'n> {
+    name: &'n str,
+    limit: usize,
+    left: usize,
+}
+
+impl<'n> Budget<'n> {
+    fn new(name: &'n str, file_bytes: usize) -> Self {
+        let limit = file_bytes
+            .saturating_mul(REFERENCES_PER_BYTE)
+            .max(MIN_REFERENCES);
+        Budget {
+            name,
+            limit,
+            left: limit,
+        }
+    }
+
+    /// Take `n` references from the budget, or the error that refuses the file.
+    fn take(&mut self, n: usize) -> Result<()> {
+        self.left = self.left.checked_sub(n).ok_or_else(|| {
             Error::input(format!(
-                "{name}: the OSM PBF file is truncated or corrupt ({e})"
+                "{}: the OSM PBF file's buildings hold more than {} node references and relation members \
+                 ({} per byte of the file): it is corrupt or made to exhaust memory",
+                self.name, self.limit, REFERENCES_PER_BYTE
             ))
-        })
+        })?;
+        Ok(())
+    }
 }
 
 /// Height, whether the part occludes, and notes about unusable tags.
@@ -112,21 +230,41 @@ fn height(tags: &Tags, options: &InputOptions, notes: &mut Vec<String>) -> (f64,
 }
 
 /// Join member ways into closed rings of node ids (each ring closed: first == last).
+/// A ring starts with the first piece left and goes on with the first piece
+/// left that starts or ends where it ends (turned round if it ends there).
 fn join_rings(mut pieces: Vec<Vec<i64>>) -> std::result::Result<Vec<Vec<i64>>, String> {
     pieces.retain(|p| p.len() >= 2);
+    // The pieces left that start or end at each node, by their order.
+    let mut at_node: HashMap<i64, BTreeSet<usize>> = HashMap::new();
+    for (i, piece) in pieces.iter().enumerate() {
+        for end in [piece[0], piece[piece.len() - 1]] {
+            at_node.entry(end).or_default().insert(i);
+        }
+    }
+    // Take piece `i` (left empty, which marks it used) out of the lists.
+    let take = |i: usize, pieces: &mut [Vec<i64>], at_node: &mut HashMap<i64, BTreeSet<usize>>| {
+        let piece = std::mem::take(&mut pieces[i]);
+        for end in [piece[0], piece[piece.len() - 1]] {
+            if let Some(set) = at_node.get_mut(&end) {
+                set.remove(&i);
+            }
+        }
+        piece
+    };
     let mut rings = Vec::new();
-    pieces.reverse();
-    while let Some(mut ring) = pieces.pop() {
+    for start in 0..pieces.len() {
+        if pieces[start].is_empty() {
+            continue;
+        }
+        let mut ring = take(start, &mut pieces, &mut at_node);
         while ring.first() != ring.last() {
-            let end = *ring.last().unwrap_or(&0);
-            let next = pieces
-                .iter()
-                .rposition(|p| p.first() == Some(&end) || p.last() == Some(&end));
+            let end = ring[ring.len() - 1];
+            let next = at_node.get(&end).and_then(|set| set.first().copied());
             let Some(i) = next else {
                 return Err(format!("a ring does not close (it ends at node {end})"));
             };
-            let mut piece = pieces.remove(i);
-            if piece.first() != Some(&end) {
+            let mut piece = take(i, &mut pieces, &mut at_node);
+            if piece[0] != end {
                 piece.reverse();
             }
             ring.extend_from_slice(&piece[1..]);
@@ -155,27 +293,53 @@ fn ring_points(
 }
 
 /// The polygons of a multipolygon relation: outer rings with the inner rings inside them.
+/// `Ok(Err(why))` skips the relation; `Err` refuses the file.
 fn relation_polygons(
-    members: &[(i64, String)],
+    members: &[(i64, bool)],
     ways: &HashMap<i64, Vec<i64>>,
+    nodes: &HashMap<i64, RawPoint>,
+    (notes, budget): (&mut Vec<String>, &mut Budget),
+) -> Result<std::result::Result<Vec<RawPolygon>, String>> {
+    let mut outer = Vec::new();
+    let mut inner = Vec::new();
+    for &(way, is_inner) in members {
+        let Some(refs) = ways.get(&way) else {
+            return Ok(Err(format!("member way {way} is missing from the extract")));
+        };
+        budget.take(refs.len())?;
+        if is_inner {
+            inner.push(refs.clone());
+        } else {
+            outer.push(refs.clone());
+        }
+    }
+    Ok(assemble_rings(outer, inner, nodes, notes))
+}
+
+/// Most inner rings times outer rings' points that a relation may ask to
+/// be tested against each other (each inner ring is placed in the first
+/// outer ring holding its centre): real relations ask for a few thousand.
+const MAX_RING_TESTS: usize = 100_000_000;
+
+/// The polygons of outer and inner member ways: closed rings of node ids,
+/// each inner ring put in the outer ring that holds its centre.
+fn assemble_rings(
+    outer: Vec<Vec<i64>>,
+    inner: Vec<Vec<i64>>,
     nodes: &HashMap<i64, RawPoint>,
     notes: &mut Vec<String>,
 ) -> std::result::Result<Vec<RawPolygon>, String> {
-    let mut outer = Vec::new();
-    let mut inner = Vec::new();
-    for (way, role) in members {
-        let refs = ways
-            .get(way)
-            .ok_or_else(|| format!("member way {way} is missing from the extract"))?;
-        match role.as_str() {
-            "inner" => inner.push(refs.clone()),
-            _ => outer.push(refs.clone()),
-        }
-    }
     let outer = join_rings(outer)?;
     let inner = join_rings(inner)?;
     if outer.is_empty() {
         return Err("no outer ring".into());
+    }
+    let outer_points: usize = outer.iter().map(Vec::len).sum();
+    if inner.len().saturating_mul(outer_points) > MAX_RING_TESTS {
+        return Err(format!(
+            "{} inner rings in outer rings of {outer_points} nodes are too many to place",
+            inner.len()
+        ));
     }
     let mut polygons: Vec<RawPolygon> = outer
         .iter()
@@ -207,25 +371,49 @@ pub fn parse(bytes: &[u8], name: &str, options: &InputOptions) -> Result<Parsed>
             "{name}: --metric does not apply to OSM PBF files (they are always lon/lat)"
         )));
     }
+    let mut budget = Budget::new(name, bytes.len());
+    // The first error met inside a pass (the passes' closures cannot
+    // return one): the rest of that pass keeps nothing.
+    let mut failed: Option<Error> = None;
     // Pass 1: building relations, and the ways they need.
     let mut relations = Vec::new();
     each_element(bytes, name, |e| {
-        if let Element::Relation(r) = e {
-            let tags = collect_tags(r.tags());
-            if tags.get("type").map(String::as_str) == Some("multipolygon") && is_building(&tags) {
-                let members = r
-                    .members()
-                    .filter(|m| m.member_type == RelMemberType::Way)
-                    .map(|m| (m.member_id, m.role().unwrap_or("").to_string()))
-                    .collect();
-                relations.push(Feature::Relation {
-                    id: r.id(),
-                    members,
-                    tags,
-                });
+        let Element::Relation(r) = e else { return };
+        if failed.is_some() {
+            return;
+        }
+        let tags = collect_tags(r.tags());
+        if tags.get("type").map(String::as_str) != Some("multipolygon") || !is_building(&tags) {
+            return;
+        }
+        let mut members = Vec::new();
+        let read = guarded(|| {
+            for m in r.members() {
+                budget.take(1)?;
+                if m.member_type == RelMemberType::Way {
+                    members.push((m.member_id, m.role().is_ok_and(|role| role == "inner")));
+                }
+            }
+            Ok(())
+        });
+        match read {
+            Ok(Ok(())) => relations.push(Feature::Relation {
+                id: r.id(),
+                members,
+                tags,
+            }),
+            Ok(Err(e)) => failed = Some(e),
+            Err(why) => {
+                failed = Some(Error::input(format!(
+                    "{name}: relation {} is corrupt: {why}",
+                    r.id()
+                )))
             }
         }
     })?;
+    if let Some(e) = failed.take() {
+        return Err(e);
+    }
     let member_ways: HashSet<i64> = relations
         .iter()
         .flat_map(|f| match f {
@@ -237,24 +425,36 @@ pub fn parse(bytes: &[u8], name: &str, options: &InputOptions) -> Result<Parsed>
     let mut features = Vec::new();
     let mut ways: HashMap<i64, Vec<i64>> = HashMap::new();
     each_element(bytes, name, |e| {
-        if let Element::Way(w) = e {
-            let tags = collect_tags(w.tags());
-            let building = is_building(&tags);
-            if building || member_ways.contains(&w.id()) {
-                let refs: Vec<i64> = w.refs().collect();
-                if member_ways.contains(&w.id()) {
-                    ways.insert(w.id(), refs.clone());
-                }
-                if building {
-                    features.push(Feature::Way {
-                        id: w.id(),
-                        refs,
-                        tags,
-                    });
-                }
-            }
+        let Element::Way(w) = e else { return };
+        if failed.is_some() {
+            return;
+        }
+        let tags = collect_tags(w.tags());
+        let building = is_building(&tags);
+        let member = member_ways.contains(&w.id());
+        if !building && !member {
+            return;
+        }
+        let copies = usize::from(building) + usize::from(member);
+        if let Err(e) = budget.take(w.raw_refs().len().saturating_mul(copies)) {
+            failed = Some(e);
+            return;
+        }
+        let refs: Vec<i64> = w.refs().collect();
+        if member {
+            ways.insert(w.id(), refs.clone());
+        }
+        if building {
+            features.push(Feature::Way {
+                id: w.id(),
+                refs,
+                tags,
+            });
         }
     })?;
+    if let Some(e) = failed {
+        return Err(e);
+    }
     features.extend(relations);
     let needed: HashSet<i64> = features
         .iter()
@@ -293,7 +493,7 @@ pub fn parse(bytes: &[u8], name: &str, options: &InputOptions) -> Result<Parsed>
             }
             Feature::Way { .. } => Err("the building way is not closed".to_string()),
             Feature::Relation { members, .. } => {
-                relation_polygons(members, &ways, &nodes, &mut notes)
+                relation_polygons(members, &ways, &nodes, (&mut notes, &mut budget))?
             }
         };
         let polygons = match polygons {

@@ -239,6 +239,12 @@ type Members = Vec<(i64, &'static str)>;
 /// building way, a multipolygon building with a courtyard whose outer ring is
 /// split over two ways (one drawn backwards), and a relation with a missing way.
 fn tiny_extract() -> Vec<u8> {
+    tiny_extract_with_member_type(1)
+}
+
+/// [`tiny_extract`] with every relation member's type number `member_type`
+/// (0 node, 1 way, 2 relation; anything else is not in the format).
+fn tiny_extract_with_member_type(member_type: u64) -> Vec<u8> {
     let mut s = pbf::Strings(vec![String::new()]);
     let square = |x: f64, y: f64, d: f64| [(x, y), (x + d, y), (x + d, y + d), (x, y + d)];
     let mut nodes_at: Vec<(f64, f64)> = Vec::new();
@@ -310,7 +316,7 @@ fn tiny_extract() -> Vec<u8> {
         pbf::packed(&mut rel, 8, &roles);
         let ids: Vec<i64> = members.iter().map(|m| m.0).collect();
         pbf::packed_delta_sint(&mut rel, 9, &ids);
-        pbf::packed(&mut rel, 10, &vec![1; members.len()]);
+        pbf::packed(&mut rel, 10, &vec![member_type; members.len()]);
         pbf::bytes_field(&mut group_relations, 4, &rel);
     }
     pbf::file(&s, &[group_nodes, group_ways, group_relations])
@@ -360,4 +366,124 @@ fn relations_parts_and_broken_features() {
         citypvs::ErrorKind::Input,
     );
     assert!(err.contains("\"w12\"") && err.contains("--strict"), "{err}");
+}
+
+#[test]
+fn relation_member_of_unknown_type_is_a_clear_error() {
+    // The PBF decoder panics on a member type it does not know; the reader
+    // catches that and names the relation.
+    for member_type in [3, 7, 1 << 30] {
+        let bytes = tiny_extract_with_member_type(member_type);
+        let err = crate::common::error_of(
+            read_city_bytes(&bytes, "bad.osm.pbf", &InputOptions::default()),
+            citypvs::ErrorKind::Input,
+        );
+        assert!(
+            err.starts_with("bad.osm.pbf: ") && err.contains("relation 20"),
+            "{err}"
+        );
+    }
+    // Members that are nodes or relations are not ways: the relations lose
+    // their rings and are skipped, which is not an error.
+    for member_type in [0, 2] {
+        let bytes = tiny_extract_with_member_type(member_type);
+        let city = read_city_bytes(&bytes, "odd.osm.pbf", &InputOptions::default()).unwrap();
+        let ids: Vec<&str> = city.buildings.iter().map(|b| b.id.as_str()).collect();
+        assert_eq!(ids, ["w10", "w11"]);
+    }
+}
+
+/// A building relation whose members are one long way listed again and
+/// again: a file of some 20 kB that would make the reader copy the way's
+/// nodes thousands of times.
+fn repeated_member_extract(refs: usize, repeats: usize) -> Vec<u8> {
+    let mut s = pbf::Strings(vec![String::new()]);
+    let mut way = Vec::new();
+    pbf::int_field(&mut way, 1, 40);
+    s.tags(&mut way, &[]);
+    let ids: Vec<i64> = (1..=refs as i64).collect();
+    pbf::packed_delta_sint(&mut way, 8, &ids);
+    let mut group_ways = Vec::new();
+    pbf::bytes_field(&mut group_ways, 3, &way);
+    let mut rel = Vec::new();
+    pbf::int_field(&mut rel, 1, 50);
+    s.tags(&mut rel, &[("type", "multipolygon"), ("building", "yes")]);
+    let outer = s.index("outer");
+    pbf::packed(&mut rel, 8, &vec![outer; repeats]);
+    let mut members = vec![40];
+    members.resize(repeats, 40);
+    pbf::packed_delta_sint(&mut rel, 9, &members);
+    pbf::packed(&mut rel, 10, &vec![1; repeats]);
+    let mut group_relations = Vec::new();
+    pbf::bytes_field(&mut group_relations, 4, &rel);
+    pbf::file(&s, &[group_ways, group_relations])
+}
+
+#[test]
+fn a_relation_repeating_a_long_way_is_refused_before_it_is_copied() {
+    let bytes = repeated_member_extract(5_000, 2_000);
+    assert!(bytes.len() < 30_000, "{}", bytes.len());
+    let err = crate::common::error_of(
+        read_city_bytes(&bytes, "bomb.osm.pbf", &InputOptions::default()),
+        citypvs::ErrorKind::Input,
+    );
+    assert!(
+        err.starts_with("bomb.osm.pbf: ") && err.contains("more than 1048576 node references"),
+        "{err}"
+    );
+    // The same relation with few repeats is read (and skipped: its one
+    // way does not close, and its nodes are not in the file).
+    let bytes = repeated_member_extract(5_000, 3);
+    let err = crate::common::error_of(
+        read_city_bytes(&bytes, "few.osm.pbf", &InputOptions::default()),
+        citypvs::ErrorKind::Input,
+    );
+    assert!(err.contains("no buildings"), "{err}");
+}
+
+#[test]
+fn long_tag_values_are_not_copied() {
+    let long = "9".repeat(100_000);
+    let mut s = pbf::Strings(vec![String::new()]);
+    let mut group_nodes = Vec::new();
+    for (i, (lon, lat)) in [(25.0, 60.0), (25.0002, 60.0), (25.0002, 60.0002)]
+        .iter()
+        .enumerate()
+    {
+        let mut node = Vec::new();
+        pbf::sint_field(&mut node, 1, i as i64 + 1);
+        pbf::packed(&mut node, 2, &[]);
+        pbf::sint_field(&mut node, 8, (lat * 1e7f64).round() as i64);
+        pbf::sint_field(&mut node, 9, (lon * 1e7f64).round() as i64);
+        pbf::bytes_field(&mut group_nodes, 1, &node);
+    }
+    let mut group_ways = Vec::new();
+    for id in 1..=200 {
+        let mut way = Vec::new();
+        pbf::int_field(&mut way, 1, id);
+        s.tags(
+            &mut way,
+            &[("building", "yes"), ("height", &long), ("name", &long)],
+        );
+        pbf::packed_delta_sint(&mut way, 8, &[1, 2, 3, 1]);
+        pbf::bytes_field(&mut group_ways, 3, &way);
+    }
+    let bytes = pbf::file(&s, &[group_nodes, group_ways]);
+    let city = read_city_bytes(&bytes, "long.osm.pbf", &InputOptions::default()).unwrap();
+    assert_eq!(city.buildings.len(), 200);
+    assert!(city.buildings.iter().all(|b| b.height == 9.0));
+    let notes: Vec<&str> = city
+        .report
+        .repaired
+        .iter()
+        .map(|w| w.message.as_str())
+        .collect();
+    assert!(
+        notes
+            .iter()
+            .any(|m| m.contains("height=\"(100000 bytes, not read)\" ignored")),
+        "{:?}",
+        &notes[..notes.len().min(3)]
+    );
+    assert!(notes.iter().all(|m| m.len() < 300));
 }
