@@ -99,9 +99,10 @@ pub unsafe extern "C" fn citypvs_open_path(
         let Ok(path) = path.to_str() else {
             return fail(CITYPVS_ERR_ARGUMENT, "path is not UTF-8");
         };
-        let bytes = match std::fs::read(Path::new(path)) {
+        let starts_right = |b: &[u8]| b.starts_with(&crate::pvs::MAGIC);
+        let bytes = match crate::infile::read_whole(Path::new(path), starts_right, "a .pvs file") {
             Ok(b) => b,
-            Err(e) => return fail(CITYPVS_ERR_IO, &format!("{path}: cannot read: {e}")),
+            Err(e) => return fail(CITYPVS_ERR_IO, &e.to_string()),
         };
         store(
             out,

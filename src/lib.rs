@@ -48,6 +48,7 @@ pub mod generate;
 #[cfg(feature = "bake")]
 pub mod geometry;
 pub mod grid;
+pub mod infile;
 #[cfg(feature = "bake")]
 pub mod input;
 pub mod model;

@@ -112,9 +112,9 @@ struct Saved {
 }
 
 fn read_baseline(path: &std::path::Path) -> Result<Saved> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| crate::Error::io(format!("{}: cannot read: {e}", path.display())))?;
-    serde_json::from_str(&text).map_err(|e| {
+    let starts_right = |b: &[u8]| b.trim_ascii_start().starts_with(b"{");
+    let text = crate::infile::read_whole(path, starts_right, "a saved bench run")?;
+    serde_json::from_slice(&text).map_err(|e| {
         crate::Error::input(format!(
             "{}: not a file written by `citypvs bench --save`: {e}",
             path.display()

@@ -101,8 +101,9 @@ pub struct City {
 
 /// Read a city file. Errors name the file, the feature and what is wrong.
 pub fn read_city(path: &Path, options: &InputOptions) -> Result<City> {
-    let bytes = std::fs::read(path)
-        .map_err(|e| crate::Error::io(format!("{}: cannot read: {e}", path.display())))?;
+    let starts_right = |b: &[u8]| detect::sniff(b) != detect::Content::Unknown;
+    let bytes =
+        crate::infile::read_whole(path, starts_right, "a GeoJSON, CityJSON or OSM PBF file")?;
     read_city_bytes(&bytes, &path.display().to_string(), options)
 }
 
@@ -128,8 +129,8 @@ pub fn read_city_bytes(bytes: &[u8], name: &str, options: &InputOptions) -> Resu
 /// FeatureCollection holding one) in the city's input frame, into local metres.
 pub fn read_region(path: &Path, frame: &Frame) -> Result<crate::model::Polygon> {
     let name = path.display().to_string();
-    let bytes =
-        std::fs::read(path).map_err(|e| crate::Error::io(format!("{name}: cannot read: {e}")))?;
+    let starts_right = |b: &[u8]| detect::sniff(b) == detect::Content::Json;
+    let bytes = crate::infile::read_whole(path, starts_right, "a GeoJSON file")?;
     let rings = geojson::parse_region(&geojson::decode(&bytes, &name)?, &name)?;
     if rings
         .iter()

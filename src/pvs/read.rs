@@ -98,8 +98,7 @@ impl<'a> Cursor<'a> {
 impl PvsReader {
     /// Open and validate the header and tables.
     pub fn open(path: &Path) -> Result<PvsReader> {
-        let bytes = std::fs::read(path)
-            .map_err(|e| Error::io(format!("{}: cannot read: {e}", path.display())))?;
+        let bytes = crate::infile::read_whole(path, |b| b.starts_with(&MAGIC), "a .pvs file")?;
         PvsReader::from_bytes(bytes).map_err(|e| e.context(path.display()))
     }
 

@@ -500,8 +500,8 @@ impl Part {
 
     /// Read and check a part file; errors start with the file's name.
     pub fn read(path: &std::path::Path) -> Result<Part> {
-        let bytes = std::fs::read(path)
-            .map_err(|e| Error::io(format!("{}: cannot read: {e}", path.display())))?;
+        let starts_right = |b: &[u8]| b.starts_with(&PART_MAGIC);
+        let bytes = crate::infile::read_whole(path, starts_right, "a shard or checkpoint file")?;
         Part::decode(&bytes).map_err(|e| e.context(path.display()))
     }
 

@@ -394,7 +394,7 @@ fn relation_member_of_unknown_type_is_a_clear_error() {
 }
 
 /// A building relation whose members are one long way listed again and
-/// again: a file of some 20 kB that would make the reader copy the way's
+/// again: a file of some 11 kB that would make the reader copy the way's
 /// nodes thousands of times.
 fn repeated_member_extract(refs: usize, repeats: usize) -> Vec<u8> {
     let mut s = pbf::Strings(vec![String::new()]);
@@ -422,7 +422,7 @@ fn repeated_member_extract(refs: usize, repeats: usize) -> Vec<u8> {
 #[test]
 fn a_relation_repeating_a_long_way_is_refused_before_it_is_copied() {
     let bytes = repeated_member_extract(5_000, 2_000);
-    assert!(bytes.len() < 30_000, "{}", bytes.len());
+    assert!(bytes.len() < 12_000, "{}", bytes.len());
     let err = crate::common::error_of(
         read_city_bytes(&bytes, "bomb.osm.pbf", &InputOptions::default()),
         citypvs::ErrorKind::Input,
