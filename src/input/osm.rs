@@ -594,4 +594,78 @@ mod tests {
         let two = join_rings(vec![vec![1, 2, 3, 1], vec![7, 8, 9, 7]]).unwrap();
         assert_eq!(two.len(), 2);
     }
+
+    /// The joining by a search of every piece left, as the reader did it
+    /// before the index of end nodes: the rings (and the error) it gives
+    /// are those `join_rings` must give.
+    fn join_rings_by_search(
+        mut pieces: Vec<Vec<i64>>,
+    ) -> std::result::Result<Vec<Vec<i64>>, String> {
+        pieces.retain(|p| p.len() >= 2);
+        let mut rings = Vec::new();
+        pieces.reverse();
+        while let Some(mut ring) = pieces.pop() {
+            while ring.first() != ring.last() {
+                let end = ring[ring.len() - 1];
+                let Some(i) = pieces
+                    .iter()
+                    .rposition(|p| p.first() == Some(&end) || p.last() == Some(&end))
+                else {
+                    return Err(format!("a ring does not close (it ends at node {end})"));
+                };
+                let mut piece = pieces.remove(i);
+                if piece[0] != end {
+                    piece.reverse();
+                }
+                ring.extend_from_slice(&piece[1..]);
+            }
+            if ring.len() >= 4 {
+                rings.push(ring);
+            }
+        }
+        Ok(rings)
+    }
+
+    proptest::proptest! {
+        /// Rings cut into pieces (some turned round, shuffled, some
+        /// pieces dropped, node ids from a small range so that rings
+        /// share nodes) join as the search joins them.
+        #[test]
+        fn joining_by_end_nodes_matches_the_search(
+            rings in proptest::collection::vec(proptest::collection::vec(0i64..12, 2..9), 1..5),
+            cuts in proptest::collection::vec(1usize..4, 8),
+            flips in proptest::collection::vec(proptest::bool::ANY, 40),
+            order in proptest::collection::vec(0usize..1000, 40),
+            drop in proptest::option::of(0usize..40),
+        ) {
+            let mut pieces = Vec::new();
+            for (r, nodes) in rings.iter().enumerate() {
+                let mut ring = nodes.clone();
+                ring.push(nodes[0]);
+                let step = cuts[r % cuts.len()];
+                let mut at = 0;
+                while at + 1 < ring.len() {
+                    let end = (at + step).min(ring.len() - 1);
+                    pieces.push(ring[at..=end].to_vec());
+                    at = end;
+                }
+            }
+            for (i, piece) in pieces.iter_mut().enumerate() {
+                if flips[i % flips.len()] {
+                    piece.reverse();
+                }
+            }
+            let mut keyed: Vec<(usize, Vec<i64>)> = pieces
+                .into_iter()
+                .enumerate()
+                .map(|(i, p)| (order[i % order.len()] * 64 + i, p))
+                .collect();
+            keyed.sort();
+            let mut pieces: Vec<Vec<i64>> = keyed.into_iter().map(|(_, p)| p).collect();
+            if let Some(d) = drop.filter(|&d| d < pieces.len()) {
+                pieces.remove(d);
+            }
+            proptest::prop_assert_eq!(join_rings(pieces.clone()), join_rings_by_search(pieces));
+        }
+    }
 }
