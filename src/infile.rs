@@ -42,29 +42,25 @@ pub fn read_whole(
     };
     let mut file = std::fs::File::open(path).map_err(cannot)?;
     let meta = file.metadata().map_err(cannot)?;
+    let mut bytes = Vec::new();
     if meta.is_file() {
         if meta.len() > MAX_FILE_BYTES {
             return Err(too_large());
         }
-        let mut bytes = Vec::with_capacity(meta.len() as usize);
-        // A file that grows while it is read stops at the limit too.
-        file.take(MAX_FILE_BYTES + 1)
+        bytes.reserve_exact(meta.len() as usize);
+    } else {
+        (&mut file)
+            .take(SNIFF_BYTES as u64)
             .read_to_end(&mut bytes)
             .map_err(cannot)?;
-        if bytes.len() as u64 > MAX_FILE_BYTES {
-            return Err(too_large());
+        if bytes.len() == SNIFF_BYTES && !starts_right(&bytes) {
+            return Err(Error::io(format!(
+                "{name}: does not start like {what} (read from a stream, which is checked after its first {} KiB)",
+                SNIFF_BYTES >> 10
+            )));
         }
-        return Ok(bytes);
     }
-    let mut bytes = Vec::new();
-    let mut head = (&mut file).take(SNIFF_BYTES as u64);
-    head.read_to_end(&mut bytes).map_err(cannot)?;
-    if bytes.len() == SNIFF_BYTES && !starts_right(&bytes) {
-        return Err(Error::io(format!(
-            "{name}: does not start like {what} (read from a stream, which is checked after its first {} KiB)",
-            SNIFF_BYTES >> 10
-        )));
-    }
+    // Also a regular file that grows while it is read stops at the limit.
     file.take(MAX_FILE_BYTES + 1 - bytes.len() as u64)
         .read_to_end(&mut bytes)
         .map_err(cannot)?;

@@ -197,6 +197,45 @@ mod pbf {
         }
     }
 
+    /// A plain node (no tags) at `lon`, `lat` degrees, added to `group`.
+    pub fn node(group: &mut Vec<u8>, id: i64, (lon, lat): (f64, f64)) {
+        let mut node = Vec::new();
+        sint_field(&mut node, 1, id);
+        packed(&mut node, 2, &[]);
+        sint_field(&mut node, 8, (lat * 1e7).round() as i64);
+        sint_field(&mut node, 9, (lon * 1e7).round() as i64);
+        bytes_field(group, 1, &node);
+    }
+
+    /// A way with node ids `refs` and `tags`, added to `group`.
+    pub fn way(s: &mut Strings, group: &mut Vec<u8>, id: i64, refs: &[i64], tags: &[(&str, &str)]) {
+        let mut way = Vec::new();
+        int_field(&mut way, 1, id as u64);
+        s.tags(&mut way, tags);
+        packed_delta_sint(&mut way, 8, refs);
+        bytes_field(group, 3, &way);
+    }
+
+    /// A relation with `members` (id and role, each of type number
+    /// `member_type`) and `tags`, added to `group`.
+    pub fn relation(
+        s: &mut Strings,
+        group: &mut Vec<u8>,
+        id: i64,
+        (members, member_type): (&[(i64, &str)], u64),
+        tags: &[(&str, &str)],
+    ) {
+        let mut rel = Vec::new();
+        int_field(&mut rel, 1, id as u64);
+        s.tags(&mut rel, tags);
+        let roles: Vec<u64> = members.iter().map(|m| s.index(m.1)).collect();
+        packed(&mut rel, 8, &roles);
+        let ids: Vec<i64> = members.iter().map(|m| m.0).collect();
+        packed_delta_sint(&mut rel, 9, &ids);
+        packed(&mut rel, 10, &vec![member_type; members.len()]);
+        bytes_field(group, 4, &rel);
+    }
+
     fn blob(out: &mut Vec<u8>, kind: &str, message: &[u8]) {
         let mut blob = Vec::new();
         bytes_field(&mut blob, 1, message);
@@ -254,13 +293,8 @@ fn tiny_extract_with_member_type(member_type: u64) -> Vec<u8> {
     nodes_at.extend(square(25.003, 60.0, 0.0004)); // 12-15: r20 outer
     nodes_at.extend(square(25.0031, 60.0001, 0.0002)); // 16-19: r20 inner
     let mut group_nodes = Vec::new();
-    for (i, (lon, lat)) in nodes_at.iter().enumerate() {
-        let mut node = Vec::new();
-        pbf::sint_field(&mut node, 1, i as i64 + 1);
-        pbf::packed(&mut node, 2, &[]);
-        pbf::sint_field(&mut node, 8, (lat * 1e7).round() as i64);
-        pbf::sint_field(&mut node, 9, (lon * 1e7).round() as i64);
-        pbf::bytes_field(&mut group_nodes, 1, &node);
+    for (i, &at) in nodes_at.iter().enumerate() {
+        pbf::node(&mut group_nodes, i as i64 + 1, at);
     }
     let ways: Vec<(i64, Vec<i64>, Tags)> = vec![
         (
@@ -285,11 +319,7 @@ fn tiny_extract_with_member_type(member_type: u64) -> Vec<u8> {
     ];
     let mut group_ways = Vec::new();
     for (id, refs, tags) in &ways {
-        let mut way = Vec::new();
-        pbf::int_field(&mut way, 1, *id as u64);
-        s.tags(&mut way, tags);
-        pbf::packed_delta_sint(&mut way, 8, refs);
-        pbf::bytes_field(&mut group_ways, 3, &way);
+        pbf::way(&mut s, &mut group_ways, *id, refs, tags);
     }
     let relations: Vec<(i64, Members, Tags)> = vec![
         (
@@ -309,15 +339,13 @@ fn tiny_extract_with_member_type(member_type: u64) -> Vec<u8> {
     ];
     let mut group_relations = Vec::new();
     for (id, members, tags) in &relations {
-        let mut rel = Vec::new();
-        pbf::int_field(&mut rel, 1, *id as u64);
-        s.tags(&mut rel, tags);
-        let roles: Vec<u64> = members.iter().map(|m| s.index(m.1)).collect();
-        pbf::packed(&mut rel, 8, &roles);
-        let ids: Vec<i64> = members.iter().map(|m| m.0).collect();
-        pbf::packed_delta_sint(&mut rel, 9, &ids);
-        pbf::packed(&mut rel, 10, &vec![member_type; members.len()]);
-        pbf::bytes_field(&mut group_relations, 4, &rel);
+        pbf::relation(
+            &mut s,
+            &mut group_relations,
+            *id,
+            (members, member_type),
+            tags,
+        );
     }
     pbf::file(&s, &[group_nodes, group_ways, group_relations])
 }
@@ -398,24 +426,13 @@ fn relation_member_of_unknown_type_is_a_clear_error() {
 /// nodes thousands of times.
 fn repeated_member_extract(refs: usize, repeats: usize) -> Vec<u8> {
     let mut s = pbf::Strings(vec![String::new()]);
-    let mut way = Vec::new();
-    pbf::int_field(&mut way, 1, 40);
-    s.tags(&mut way, &[]);
     let ids: Vec<i64> = (1..=refs as i64).collect();
-    pbf::packed_delta_sint(&mut way, 8, &ids);
     let mut group_ways = Vec::new();
-    pbf::bytes_field(&mut group_ways, 3, &way);
-    let mut rel = Vec::new();
-    pbf::int_field(&mut rel, 1, 50);
-    s.tags(&mut rel, &[("type", "multipolygon"), ("building", "yes")]);
-    let outer = s.index("outer");
-    pbf::packed(&mut rel, 8, &vec![outer; repeats]);
-    let mut members = vec![40];
-    members.resize(repeats, 40);
-    pbf::packed_delta_sint(&mut rel, 9, &members);
-    pbf::packed(&mut rel, 10, &vec![1; repeats]);
+    pbf::way(&mut s, &mut group_ways, 40, &ids, &[]);
     let mut group_relations = Vec::new();
-    pbf::bytes_field(&mut group_relations, 4, &rel);
+    let tags = [("type", "multipolygon"), ("building", "yes")];
+    let members = vec![(40, "outer"); repeats];
+    pbf::relation(&mut s, &mut group_relations, 50, (&members, 1), &tags);
     pbf::file(&s, &[group_ways, group_relations])
 }
 
@@ -446,27 +463,16 @@ fn long_tag_values_are_not_copied() {
     let long = "9".repeat(100_000);
     let mut s = pbf::Strings(vec![String::new()]);
     let mut group_nodes = Vec::new();
-    for (i, (lon, lat)) in [(25.0, 60.0), (25.0002, 60.0), (25.0002, 60.0002)]
+    for (i, &at) in [(25.0, 60.0), (25.0002, 60.0), (25.0002, 60.0002)]
         .iter()
         .enumerate()
     {
-        let mut node = Vec::new();
-        pbf::sint_field(&mut node, 1, i as i64 + 1);
-        pbf::packed(&mut node, 2, &[]);
-        pbf::sint_field(&mut node, 8, (lat * 1e7f64).round() as i64);
-        pbf::sint_field(&mut node, 9, (lon * 1e7f64).round() as i64);
-        pbf::bytes_field(&mut group_nodes, 1, &node);
+        pbf::node(&mut group_nodes, i as i64 + 1, at);
     }
     let mut group_ways = Vec::new();
+    let tags = [("building", "yes"), ("height", &long), ("name", &long)];
     for id in 1..=200 {
-        let mut way = Vec::new();
-        pbf::int_field(&mut way, 1, id);
-        s.tags(
-            &mut way,
-            &[("building", "yes"), ("height", &long), ("name", &long)],
-        );
-        pbf::packed_delta_sint(&mut way, 8, &[1, 2, 3, 1]);
-        pbf::bytes_field(&mut group_ways, 3, &way);
+        pbf::way(&mut s, &mut group_ways, id, &[1, 2, 3, 1], &tags);
     }
     let bytes = pbf::file(&s, &[group_nodes, group_ways]);
     let city = read_city_bytes(&bytes, "long.osm.pbf", &InputOptions::default()).unwrap();
