@@ -38,6 +38,9 @@ const FAN_DIRECTIONS: usize = 16;
 /// azimuths equal up to rounding, and each neighbour's closed wedge already
 /// includes their boundary directions.
 const MIN_WEDGE: f64 = 1e-11;
+/// Vertices nearer than this (metres) cut the directions into wedges from
+/// the start; farther ones cut a wedge only when its walk reaches them.
+const FIRST_REACH: f64 = 30.0;
 /// An elevation for an edge whose line passes through the viewpoint.
 const HUGE_ELEVATION: f64 = 1e30;
 /// A viewpoint inside an occluding building by at most this much (metres)
@@ -92,6 +95,8 @@ pub struct Judge<'a> {
     /// the order of crossings along a ray changes there too.
     overlaps: Vec<DVec2>,
     bounds: Vec<Rect>,
+    /// Vertices this near a viewpoint cut its directions before any walk.
+    first_reach: f64,
 }
 
 /// Per-thread working memory of [`Judge::view`].
@@ -99,12 +104,60 @@ pub struct Judge<'a> {
 pub struct Scratch {
     ray: RayScratch,
     envelope: Envelope,
-    azimuths: Vec<f64>,
+    /// Every vertex and crossing as (azimuth, distance), ascending by
+    /// azimuth, one entry per azimuth (the nearest), with the fan at
+    /// distance 0.
+    directions: Vec<(f64, f64)>,
+    /// Wedges still to judge, as indices into `directions` (the second may
+    /// be past the end: the same entry a turn later); the next is last.
+    wedges: Vec<(usize, usize)>,
+    /// Where a wedge is cut: indices into `directions`.
+    cuts: Vec<usize>,
     farthest: Vec<f64>,
     beyond: Vec<(f64, f64)>,
-    seen: Vec<Option<DVec3>>,
+    seen: Marks,
     /// Buildings the ray is inside of: (building, edge it entered by).
     open: Vec<(u32, Option<u32>)>,
+}
+
+/// The buildings seen so far from one viewpoint (each with a point of it
+/// seen), and which of them the wedge being judged marked, so that those
+/// marks can be taken back if the wedge has to be cut after all.
+#[derive(Debug, Default)]
+struct Marks {
+    seen: Vec<Option<DVec3>>,
+    fresh: Vec<u32>,
+}
+
+impl Marks {
+    fn start(&mut self, buildings: usize) {
+        self.seen.clear();
+        self.seen.resize(buildings, None);
+        self.fresh.clear();
+    }
+
+    fn is_seen(&self, building: u32) -> bool {
+        self.seen[building as usize].is_some()
+    }
+
+    fn mark(&mut self, building: u32, witness: DVec3) {
+        if !self.is_seen(building) {
+            self.seen[building as usize] = Some(witness);
+            self.fresh.push(building);
+        }
+    }
+
+    /// The wedge's marks stand.
+    fn keep(&mut self) {
+        self.fresh.clear();
+    }
+
+    /// The wedge's marks are taken back.
+    fn take_back(&mut self) {
+        for b in self.fresh.drain(..) {
+            self.seen[b as usize] = None;
+        }
+    }
 }
 
 /// The point of `building`'s outline nearest to `p`, the distance, and the
@@ -139,6 +192,8 @@ struct Wedge {
     z: f64,
     mid: DVec2,
     perp: DVec2,
+    /// The unit directions of its two borders.
+    borders: [DVec2; 2],
 }
 
 impl Wedge {
@@ -195,7 +250,19 @@ impl<'a> Judge<'a> {
             vertices,
             overlaps,
             bounds,
+            first_reach: FIRST_REACH,
         }
+    }
+
+    /// The same judge with every vertex within `metres` of a viewpoint
+    /// cutting its directions before any walk (farther ones cut a wedge
+    /// only when its walk reaches them). Any distance gives the same
+    /// verdicts; infinity gives one wedge between each two neighbouring
+    /// vertex directions, the simplest form of the argument, which tests
+    /// compare with.
+    pub fn with_first_cuts_within(mut self, metres: f64) -> Self {
+        self.first_reach = metres;
+        self
     }
 
     /// Every building seen from `viewpoint`, each with a point of it seen.
@@ -205,26 +272,43 @@ impl<'a> Judge<'a> {
             Err((building, depth)) => return View::InsideBuilding { building, depth },
         };
         let z = viewpoint.z;
-        let n = self.buildings.len();
-        scratch.seen.clear();
-        scratch.seen.resize(n, None);
+        scratch.seen.start(self.buildings.len());
         let mut lifted_around = Vec::new();
         for (i, b) in self.buildings.iter().enumerate() {
             if !b.occludes && self.contains(i, origin) {
                 // Standing under a lifted part: it is overhead, hence seen.
                 lifted_around.push(i as u32);
-                scratch.seen[i] = Some(DVec3::new(origin.x, origin.y, b.height));
+                scratch
+                    .seen
+                    .mark(i as u32, DVec3::new(origin.x, origin.y, b.height));
             }
         }
+        scratch.seen.keep();
         self.collect_azimuths(origin, scratch);
         let beyond = std::mem::take(&mut scratch.beyond);
-        let azimuths = std::mem::take(&mut scratch.azimuths);
+        let directions = std::mem::take(&mut scratch.directions);
+        let n = directions.len();
+        let azimuth = |i: usize| match i.checked_sub(n) {
+            None => directions[i].0,
+            Some(j) => directions[j].0 + std::f64::consts::TAU,
+        };
+        let distance = |i: usize| directions[i % n].1;
+        // The first cuts: the fan and every vertex within FIRST_REACH,
+        // judged in the order of their directions.
+        scratch.cuts.clear();
+        scratch
+            .cuts
+            .extend((0..n).filter(|&i| directions[i].1 <= self.first_reach));
+        scratch.wedges.clear();
+        if let (Some(&first), Some(&last)) = (scratch.cuts.first(), scratch.cuts.last()) {
+            scratch.wedges.push((last, first + n));
+            scratch
+                .wedges
+                .extend(scratch.cuts.windows(2).rev().map(|w| (w[0], w[1])));
+        }
         let mut rays = 0u64;
-        for (k, &a0) in azimuths.iter().enumerate() {
-            let a1 = match azimuths.get(k + 1) {
-                Some(&a) => a,
-                None => azimuths[0] + std::f64::consts::TAU,
-            };
+        while let Some((i0, i1)) = scratch.wedges.pop() {
+            let (a0, a1) = (azimuth(i0), azimuth(i1));
             let width = a1 - a0;
             if width < MIN_WEDGE {
                 continue;
@@ -236,6 +320,7 @@ impl<'a> Judge<'a> {
                 z,
                 mid,
                 perp: mid.perp(),
+                borders: [DVec2::new(a0.cos(), a0.sin()), DVec2::new(a1.cos(), a1.sin())],
             };
             let reach = (0.5 * width).tan();
             scratch.envelope.reset(-reach, reach);
@@ -244,11 +329,29 @@ impl<'a> Judge<'a> {
                 .open
                 .extend(lifted_around.iter().map(|&b| (b, None)));
             rays += 1;
-            self.judge_wedge(&wedge, &beyond, scratch);
+            let judged_out_to = self.judge_wedge(&wedge, &beyond, scratch);
+            // A vertex inside the wedge no farther than what the walk
+            // judged may change which edges its rays cross there: the
+            // verdicts are taken back and the wedge is cut at every such
+            // vertex (docs/verify.md, "Wedges cut as far as the walk goes").
+            scratch.cuts.clear();
+            scratch
+                .cuts
+                .extend((i0 + 1..i1).filter(|&i| distance(i) <= judged_out_to));
+            if scratch.cuts.is_empty() {
+                scratch.seen.keep();
+                continue;
+            }
+            scratch.seen.take_back();
+            scratch.cuts.insert(0, i0);
+            scratch.cuts.push(i1);
+            let Scratch { wedges, cuts, .. } = &mut *scratch;
+            wedges.extend(cuts.windows(2).rev().map(|w| (w[0], w[1])));
         }
         scratch.beyond = beyond;
-        scratch.azimuths = azimuths;
+        scratch.directions = directions;
         let sightings = scratch
+            .seen
             .seen
             .iter()
             .enumerate()
@@ -330,34 +433,45 @@ impl<'a> Judge<'a> {
         refused
     }
 
-    /// Sorted vertex azimuths plus the fan into `scratch.azimuths`, and in
-    /// `scratch.beyond` (distance, greatest height of the buildings reaching
-    /// at least that far) ascending by distance.
+    /// Every vertex and crossing point as (azimuth, distance) plus the fan
+    /// into `scratch.directions` (ascending by azimuth, one entry per
+    /// azimuth with the least distance), and in `scratch.beyond` (distance,
+    /// greatest height of the buildings reaching at least that far)
+    /// ascending by distance.
     fn collect_azimuths(&self, origin: DVec2, scratch: &mut Scratch) {
-        let az = &mut scratch.azimuths;
-        az.clear();
+        let dirs = &mut scratch.directions;
+        dirs.clear();
         scratch.farthest.clear();
         scratch.farthest.resize(self.buildings.len(), 0.0);
         for &(v, b) in &self.vertices {
             let d = v - origin;
             let d2 = d.length_squared();
             if d2 > 1e-24 {
-                az.push(d.y.atan2(d.x));
+                dirs.push((d.y.atan2(d.x), d2.sqrt()));
             }
             let f = &mut scratch.farthest[b as usize];
             *f = f.max(d2);
         }
         for &v in &self.overlaps {
             let d = v - origin;
-            if d.length_squared() > 1e-24 {
-                az.push(d.y.atan2(d.x));
+            let d2 = d.length_squared();
+            if d2 > 1e-24 {
+                dirs.push((d.y.atan2(d.x), d2.sqrt()));
             }
         }
-        az.extend((0..FAN_DIRECTIONS).map(|k| {
-            -std::f64::consts::PI + std::f64::consts::TAU * k as f64 / FAN_DIRECTIONS as f64
+        dirs.extend((0..FAN_DIRECTIONS).map(|k| {
+            let a = -std::f64::consts::PI
+                + std::f64::consts::TAU * k as f64 / FAN_DIRECTIONS as f64;
+            (a, 0.0)
         }));
-        az.sort_by(f64::total_cmp);
-        az.dedup();
+        dirs.sort_by(|p, q| p.0.total_cmp(&q.0));
+        dirs.dedup_by(|later, kept| {
+            let same = later.0 == kept.0;
+            if same {
+                kept.1 = kept.1.min(later.1);
+            }
+            same
+        });
         let beyond = &mut scratch.beyond;
         beyond.clear();
         beyond.extend(
@@ -374,8 +488,11 @@ impl<'a> Judge<'a> {
     }
 
     /// Walk the wedge's middle ray and judge every building on it over the
-    /// whole wedge, crossing by crossing.
-    fn judge_wedge(&self, wedge: &Wedge, beyond: &[(f64, f64)], scratch: &mut Scratch) {
+    /// whole wedge, crossing by crossing. Returns how far from the origin
+    /// the judged part of the wedge reaches: the farthest point, within the
+    /// wedge, of the edge where the walk stopped (infinity if it ran to the
+    /// end). The verdicts hold if no vertex lies inside the wedge that near.
+    fn judge_wedge(&self, wedge: &Wedge, beyond: &[(f64, f64)], scratch: &mut Scratch) -> f64 {
         let Scratch {
             ray,
             envelope,
@@ -384,9 +501,10 @@ impl<'a> Judge<'a> {
             ..
         } = scratch;
         // Index into `beyond` of the last distance looked up (MAX: none yet,
-        // search); distances along a ray mostly grow, so later lookups walk
-        // from here.
+        // search); distances along a ray mostly grow, so later lookups
+        // start from here.
         let mut cursor = usize::MAX;
+        let mut stopped_at = None;
         self.grid
             .walk(wedge.origin, wedge.mid, ray, |batch: &[Crossing]| {
                 for c in batch {
@@ -401,8 +519,50 @@ impl<'a> Judge<'a> {
                     }
                 }
                 let last = batch.last().map(|c| c.edge);
-                !self.nothing_more_to_see(wedge, last, envelope, beyond, &mut cursor)
+                let done = self.nothing_more_to_see(wedge, last, envelope, beyond, &mut cursor);
+                if done {
+                    stopped_at = last;
+                }
+                !done
             });
+        match stopped_at {
+            Some(edge) => self.farthest_in_wedge(wedge, edge),
+            None => f64::INFINITY,
+        }
+    }
+
+    /// A bound on the distance from the origin of every point of the wedge
+    /// nearer than `edge` along its ray. When the edge crosses both borders
+    /// (the wedge is under 180 degrees, so the part between the crossings
+    /// lies inside it), distance along the segment peaks at an end: the
+    /// farther crossing. Otherwise an end of the edge lies inside the wedge
+    /// and the farthest end bounds the edge's part in it; the walk crossed
+    /// the edge, so that end must then cut the wedge, and does (it is no
+    /// farther than the bound).
+    fn farthest_in_wedge(&self, wedge: &Wedge, edge: u32) -> f64 {
+        let e = &self.grid.edges[edge as usize];
+        let along = e.b - e.a;
+        let from_a = e.a - wedge.origin;
+        let mut spans = true;
+        let mut farthest: f64 = 0.0;
+        for u in wedge.borders {
+            let across = u.perp_dot(along);
+            // The border ray origin + t u meets the edge at a + lambda along.
+            let t = from_a.perp_dot(along) / across;
+            let lambda = from_a.perp_dot(u) / across;
+            if t.is_finite() && t > 0.0 && (0.0..=1.0).contains(&lambda) {
+                farthest = farthest.max(t);
+            } else {
+                spans = false;
+            }
+        }
+        if !spans {
+            farthest = farthest
+                .max(from_a.length())
+                .max((e.b - wedge.origin).length());
+        }
+        // Room for the roundings of the distances compared with it.
+        farthest * (1.0 + 1e-9) + 1e-9
     }
 
     /// The ray enters building `c.building` through edge `c.edge`.
@@ -419,7 +579,7 @@ impl<'a> Judge<'a> {
         c: &Crossing,
         open: &mut Vec<(u32, Option<u32>)>,
         envelope: &mut Envelope,
-        seen: &mut [Option<DVec3>],
+        seen: &mut Marks,
     ) {
         let b = &self.buildings[c.building as usize];
         if b.occludes {
@@ -427,7 +587,7 @@ impl<'a> Judge<'a> {
                 let target = open[k].0;
                 let t = &self.buildings[target as usize];
                 if open[k].1.is_some()
-                    && seen[target as usize].is_none()
+                    && !seen.is_seen(target)
                     && t.height < wedge.z
                     && t.height < b.height
                 {
@@ -456,12 +616,12 @@ impl<'a> Judge<'a> {
         far: u32,
         open: &[(u32, Option<u32>)],
         envelope: &mut Envelope,
-        seen: &mut [Option<DVec3>],
+        seen: &mut Marks,
     ) {
         let b = &self.buildings[building as usize];
         let dh = b.height - wedge.z;
         if dh < 0.0 {
-            if seen[building as usize].is_none() {
+            if !seen.is_seen(building) {
                 self.judge_roof_point(wedge, building, far, open, envelope, seen);
             }
             if b.occludes {
@@ -481,7 +641,7 @@ impl<'a> Judge<'a> {
         edge: u32,
         open: &[(u32, Option<u32>)],
         envelope: &Envelope,
-        seen: &mut [Option<DVec3>],
+        seen: &mut Marks,
     ) {
         let h = self.buildings[target as usize].height;
         let buried = open.iter().any(|&(j, near)| {
@@ -503,15 +663,15 @@ impl<'a> Judge<'a> {
         edge: u32,
         line: &Line,
         envelope: &Envelope,
-        seen: &mut [Option<DVec3>],
+        seen: &mut Marks,
     ) {
-        if seen[building as usize].is_some() {
+        if seen.is_seen(building) {
             return;
         }
         let (s, margin) = envelope.best_against(line);
         if margin >= 0.0 {
             let h = self.buildings[building as usize].height;
-            seen[building as usize] = Some(wedge.point_on(&self.grid, edge, s, h));
+            seen.mark(building, wedge.point_on(&self.grid, edge, s, h));
         }
     }
 
@@ -537,17 +697,7 @@ impl<'a> Judge<'a> {
         // Every ray of the wedge crosses the edge itself, so what lies
         // beyond is at least as far as the nearest point of the edge.
         let nearest = distance_to_segment(wedge.origin, edge.a, edge.b);
-        let mut i = if *cursor == usize::MAX {
-            beyond.partition_point(|&(d, _)| d < nearest)
-        } else {
-            *cursor
-        };
-        while i > 0 && beyond[i - 1].0 >= nearest {
-            i -= 1;
-        }
-        while i < beyond.len() && beyond[i].0 < nearest {
-            i += 1;
-        }
+        let i = first_not_nearer(beyond, *cursor, nearest);
         *cursor = i;
         let Some(&(_, highest)) = beyond.get(i) else {
             return true;
@@ -561,4 +711,26 @@ impl<'a> Judge<'a> {
         }
         envelope.strictly_above(&wedge.elevation(&self.grid, last, dh))
     }
+}
+
+/// The index of the first entry of `beyond` (ascending by distance) not
+/// nearer than `distance`, searched from `hint` (an earlier answer, or
+/// `usize::MAX` for none): a ray's distances mostly grow a little from one
+/// lookup to the next, but one that runs far down a street passes
+/// thousands of buildings at once, so the search gallops forwards.
+fn first_not_nearer(beyond: &[(f64, f64)], hint: usize, distance: f64) -> usize {
+    let nearer = |&(d, _): &(f64, f64)| d < distance;
+    if hint > beyond.len() {
+        return beyond.partition_point(nearer);
+    }
+    if hint > 0 && !nearer(&beyond[hint - 1]) {
+        return beyond[..hint].partition_point(nearer);
+    }
+    let (mut from, mut step) = (hint, 1);
+    while from + step <= beyond.len() && nearer(&beyond[from + step - 1]) {
+        from += step;
+        step *= 2;
+    }
+    let to = (from + step).min(beyond.len());
+    from + beyond[from..to].partition_point(nearer)
 }

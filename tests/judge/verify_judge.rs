@@ -3,6 +3,7 @@
 //! scenes, and whole-PVS verdicts (a broken PVS is caught, a superset passes).
 
 use crate::common::{block, ring_building};
+use citypvs::generate::{GenerateParams, Style, generate_styled};
 use citypvs::model::{Building, Polygon, point_in_multipolygon, polygon_edges};
 use citypvs::verify::{Judge, Scratch, VerifyOptions, View, verify};
 use glam::{DVec2, DVec3};
@@ -533,6 +534,89 @@ fn the_judge_agrees_with_brute_force_on_random_scenes() {
     }
     assert_eq!(checked, 72);
     assert!(seen_total > 200, "the scenes are not trivial: {seen_total}");
+}
+
+/// The buildings seen from `p` (indices, ascending) and the rays walked.
+fn seen_and_rays(judge: &Judge, p: DVec3, scratch: &mut Scratch) -> Option<(Vec<u32>, u64)> {
+    match judge.view(p, scratch) {
+        View::Seen {
+            sightings, rays, ..
+        } => Some((sightings.iter().map(|s| s.building).collect(), rays)),
+        View::InsideBuilding { .. } => None,
+    }
+}
+
+/// Wedges cut only as far as their walks reach give the verdicts of one
+/// wedge between every two neighbouring vertex directions, from random
+/// points of random scenes and of generated cities of both styles, at the
+/// eye and above the roofs; and they walk fewer rays in a city.
+#[test]
+fn wedges_cut_as_far_as_the_walk_goes_keep_every_verdict() {
+    let mut rng = ChaCha8Rng::seed_from_u64(77);
+    let mut scenes: Vec<Vec<Building>> = (0..6).map(|_| random_scene(&mut rng)).collect();
+    for style in [Style::Default, Style::OldTown] {
+        let city = generate_styled(
+            &GenerateParams {
+                buildings: 150,
+                seed: 4,
+            },
+            style,
+        );
+        scenes.push(
+            city.buildings
+                .into_iter()
+                .map(|g| Building {
+                    id: g.id,
+                    footprint: vec![g.footprint],
+                    height: g.height,
+                    occludes: true,
+                })
+                .collect(),
+        );
+    }
+    let (mut rays_cut, mut rays_every) = (0u64, 0u64);
+    let mut compared = 0;
+    for (k, city) in scenes.iter().enumerate() {
+        let bounds = city
+            .iter()
+            .flat_map(|b| b.footprint.iter().flat_map(|p| p.exterior.iter()))
+            .fold(citypvs::model::Rect::EMPTY, |mut r, p| {
+                r.include(*p);
+                r
+            });
+        let cut = Judge::new(city);
+        let from_the_start = Judge::new(city).with_first_cuts_within(0.0);
+        let every = Judge::new(city).with_first_cuts_within(f64::INFINITY);
+        let mut scratch = Scratch::default();
+        for _ in 0..25 {
+            let p = DVec3::new(
+                rng.random_range(bounds.min.x - 10.0..bounds.max.x + 10.0),
+                rng.random_range(bounds.min.y - 10.0..bounds.max.y + 10.0),
+                if rng.random_bool(0.5) {
+                    1.7
+                } else {
+                    rng.random_range(0.05..40.0)
+                },
+            );
+            let Some((want, rays)) = seen_and_rays(&every, p, &mut scratch) else {
+                continue;
+            };
+            let (got, got_rays) = seen_and_rays(&cut, p, &mut scratch).unwrap();
+            assert_eq!(got, want, "scene {k}, from {p}");
+            let (got, _) = seen_and_rays(&from_the_start, p, &mut scratch).unwrap();
+            assert_eq!(got, want, "scene {k}, from {p}, no first cuts");
+            if k >= 6 {
+                rays_cut += got_rays;
+                rays_every += rays;
+            }
+            compared += 1;
+        }
+    }
+    assert!(compared > 100, "{compared} viewpoints compared");
+    assert!(
+        rays_cut < rays_every,
+        "the cut wedges walked {rays_cut} rays, every vertex's {rays_every}"
+    );
 }
 
 // ---------------------------------------------------------------------------
