@@ -7,6 +7,7 @@
 //! ray walk), [`envelope`] (the horizon of one wedge of rays), and
 //! [`verify_file`] (a `.pvs` file against its city: ids, frame, cells).
 
+mod beyond;
 pub mod edges;
 pub mod envelope;
 mod file;

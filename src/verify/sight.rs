@@ -25,6 +25,7 @@
 use glam::{DVec2, DVec3};
 
 use super::edges::{Crossing, EdgeGrid, RayScratch};
+use super::beyond::HeightsBeyond;
 use super::envelope::{Envelope, Line};
 use crate::model::{
     Building, Rect, distance_to_segment, multipolygon_bounds, point_in_multipolygon, polygon_edges,
@@ -113,8 +114,9 @@ pub struct Scratch {
     wedges: Vec<(usize, usize)>,
     /// Where a wedge is cut: indices into `directions`.
     cuts: Vec<usize>,
-    farthest: Vec<f64>,
-    beyond: Vec<(f64, f64)>,
+    /// One building's vertex azimuths, while `beyond` is built.
+    building_azimuths: Vec<Option<f64>>,
+    beyond: HeightsBeyond,
     seen: Marks,
     /// Buildings the ray is inside of: (building, edge it entered by).
     open: Vec<(u32, Option<u32>)>,
@@ -194,6 +196,8 @@ struct Wedge {
     perp: DVec2,
     /// The unit directions of its two borders.
     borders: [DVec2; 2],
+    /// Their azimuths (radians; the second may be past pi).
+    azimuths: (f64, f64),
 }
 
 impl Wedge {
@@ -321,6 +325,7 @@ impl<'a> Judge<'a> {
                 mid,
                 perp: mid.perp(),
                 borders: [DVec2::new(a0.cos(), a0.sin()), DVec2::new(a1.cos(), a1.sin())],
+                azimuths: (a0, a1),
             };
             let reach = (0.5 * width).tan();
             scratch.envelope.reset(-reach, reach);
@@ -435,23 +440,33 @@ impl<'a> Judge<'a> {
 
     /// Every vertex and crossing point as (azimuth, distance) plus the fan
     /// into `scratch.directions` (ascending by azimuth, one entry per
-    /// azimuth with the least distance), and in `scratch.beyond` (distance,
-    /// greatest height of the buildings reaching at least that far)
-    /// ascending by distance.
+    /// azimuth with the least distance), and every building into
+    /// `scratch.beyond`.
     fn collect_azimuths(&self, origin: DVec2, scratch: &mut Scratch) {
         let dirs = &mut scratch.directions;
         dirs.clear();
-        scratch.farthest.clear();
-        scratch.farthest.resize(self.buildings.len(), 0.0);
-        for &(v, b) in &self.vertices {
-            let d = v - origin;
-            let d2 = d.length_squared();
-            if d2 > 1e-24 {
-                dirs.push((d.y.atan2(d.x), d2.sqrt()));
+        scratch.beyond.clear();
+        let mut vertices = self.vertices.iter().peekable();
+        while let Some(&&(_, b)) = vertices.peek() {
+            scratch.building_azimuths.clear();
+            let mut farthest: f64 = 0.0;
+            while let Some(&(v, _)) = vertices.next_if(|&&(_, c)| c == b) {
+                let d = v - origin;
+                let d2 = d.length_squared();
+                let azimuth = (d2 > 1e-24).then(|| d.y.atan2(d.x));
+                if let Some(a) = azimuth {
+                    dirs.push((a, d2.sqrt()));
+                }
+                scratch.building_azimuths.push(azimuth);
+                farthest = farthest.max(d2);
             }
-            let f = &mut scratch.farthest[b as usize];
-            *f = f.max(d2);
+            scratch.beyond.add(
+                scratch.building_azimuths.iter().copied(),
+                farthest.sqrt(),
+                self.buildings[b as usize].height,
+            );
         }
+        scratch.beyond.finish();
         for &v in &self.overlaps {
             let d = v - origin;
             let d2 = d.length_squared();
@@ -472,19 +487,6 @@ impl<'a> Judge<'a> {
             }
             same
         });
-        let beyond = &mut scratch.beyond;
-        beyond.clear();
-        beyond.extend(
-            scratch
-                .farthest
-                .iter()
-                .zip(self.buildings)
-                .map(|(d2, b)| (d2.sqrt(), b.height)),
-        );
-        beyond.sort_by(|a, b| a.0.total_cmp(&b.0));
-        for i in (0..beyond.len().saturating_sub(1)).rev() {
-            beyond[i].1 = beyond[i].1.max(beyond[i + 1].1);
-        }
     }
 
     /// Walk the wedge's middle ray and judge every building on it over the
@@ -492,7 +494,7 @@ impl<'a> Judge<'a> {
     /// the judged part of the wedge reaches: the farthest point, within the
     /// wedge, of the edge where the walk stopped (infinity if it ran to the
     /// end). The verdicts hold if no vertex lies inside the wedge that near.
-    fn judge_wedge(&self, wedge: &Wedge, beyond: &[(f64, f64)], scratch: &mut Scratch) -> f64 {
+    fn judge_wedge(&self, wedge: &Wedge, beyond: &HeightsBeyond, scratch: &mut Scratch) -> f64 {
         let Scratch {
             ray,
             envelope,
@@ -500,10 +502,6 @@ impl<'a> Judge<'a> {
             open,
             ..
         } = scratch;
-        // Index into `beyond` of the last distance looked up (MAX: none yet,
-        // search); distances along a ray mostly grow, so later lookups
-        // start from here.
-        let mut cursor = usize::MAX;
         let mut stopped_at = None;
         self.grid
             .walk(wedge.origin, wedge.mid, ray, |batch: &[Crossing]| {
@@ -519,7 +517,7 @@ impl<'a> Judge<'a> {
                     }
                 }
                 let last = batch.last().map(|c| c.edge);
-                let done = self.nothing_more_to_see(wedge, last, envelope, beyond, &mut cursor);
+                let done = self.nothing_more_to_see(wedge, last, envelope, beyond);
                 if done {
                     stopped_at = last;
                 }
@@ -684,8 +682,7 @@ impl<'a> Judge<'a> {
         wedge: &Wedge,
         last: Option<u32>,
         envelope: &Envelope,
-        beyond: &[(f64, f64)],
-        cursor: &mut usize,
+        beyond: &HeightsBeyond,
     ) -> bool {
         let Some(last) = last else {
             return false;
@@ -697,9 +694,8 @@ impl<'a> Judge<'a> {
         // Every ray of the wedge crosses the edge itself, so what lies
         // beyond is at least as far as the nearest point of the edge.
         let nearest = distance_to_segment(wedge.origin, edge.a, edge.b);
-        let i = first_not_nearer(beyond, *cursor, nearest);
-        *cursor = i;
-        let Some(&(_, highest)) = beyond.get(i) else {
+        let (from, to) = wedge.azimuths;
+        let Some(highest) = beyond.highest(from, to, nearest) else {
             return true;
         };
         let dh = highest - wedge.z;
@@ -711,26 +707,4 @@ impl<'a> Judge<'a> {
         }
         envelope.strictly_above(&wedge.elevation(&self.grid, last, dh))
     }
-}
-
-/// The index of the first entry of `beyond` (ascending by distance) not
-/// nearer than `distance`, searched from `hint` (an earlier answer, or
-/// `usize::MAX` for none): a ray's distances mostly grow a little from one
-/// lookup to the next, but one that runs far down a street passes
-/// thousands of buildings at once, so the search gallops forwards.
-fn first_not_nearer(beyond: &[(f64, f64)], hint: usize, distance: f64) -> usize {
-    let nearer = |&(d, _): &(f64, f64)| d < distance;
-    if hint > beyond.len() {
-        return beyond.partition_point(nearer);
-    }
-    if hint > 0 && !nearer(&beyond[hint - 1]) {
-        return beyond[..hint].partition_point(nearer);
-    }
-    let (mut from, mut step) = (hint, 1);
-    while from + step <= beyond.len() && nearer(&beyond[from + step - 1]) {
-        from += step;
-        step *= 2;
-    }
-    let to = (from + step).min(beyond.len());
-    from + beyond[from..to].partition_point(nearer)
 }

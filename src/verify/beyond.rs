@@ -1,0 +1,179 @@
+//! How high anything can stand beyond a distance, in a range of directions
+//! from one viewpoint: the bound that lets the judge stop a ray's walk once
+//! its horizon is above everything the rest of its wedge can hold.
+//!
+//! The directions around the viewpoint are cut into [`SECTORS`] equal
+//! sectors. Each building is listed in every sector its directions can meet
+//! (widened by a sector on each side), with its farthest vertex distance and
+//! its height; within a sector the list is sorted by distance and carries
+//! the greatest height of the entries from there on. A building whose
+//! vertices do not fit in a half turn (the viewpoint inside its convex
+//! hull) is listed in every sector.
+
+use std::f64::consts::{PI, TAU};
+
+/// Sectors per turn.
+const SECTORS: usize = 256;
+
+/// Per sector, the buildings that reach into it, by distance.
+#[derive(Debug, Default)]
+pub struct HeightsBeyond {
+    /// Sector `s` holds `items[starts[s]..starts[s + 1]]`.
+    starts: Vec<u32>,
+    /// (farthest distance, greatest height of this entry and every later
+    /// one of its sector), ascending by distance within a sector.
+    items: Vec<(f64, f64)>,
+    /// While building: (first sector, last sector, distance, height), the
+    /// sectors counted on past the turn.
+    spans: Vec<(i64, i64, f64, f64)>,
+}
+
+/// The sector of azimuth `a` (radians), not wrapped into one turn.
+fn sector_of(a: f64) -> i64 {
+    ((a + PI) / TAU * SECTORS as f64).floor() as i64
+}
+
+impl HeightsBeyond {
+    /// Starts a new viewpoint.
+    pub fn clear(&mut self) {
+        self.spans.clear();
+    }
+
+    /// Lists a building of `height` whose vertices have the azimuths
+    /// `azimuths` (radians, from the viewpoint) and lie at most `farthest`
+    /// from it. `None` for an azimuth: a vertex at the viewpoint itself.
+    pub fn add(&mut self, azimuths: impl Iterator<Item = Option<f64>>, farthest: f64, height: f64) {
+        let mut reference = None;
+        let (mut lo, mut hi) = (0.0f64, 0.0f64);
+        let mut everywhere = false;
+        for a in azimuths {
+            let Some(a) = a else {
+                everywhere = true;
+                break;
+            };
+            let r = *reference.get_or_insert(a);
+            // The angle from the first vertex's direction, in (-pi, pi].
+            let mut d = a - r;
+            if d > PI {
+                d -= TAU;
+            } else if d <= -PI {
+                d += TAU;
+            }
+            lo = lo.min(d);
+            hi = hi.max(d);
+        }
+        let Some(r) = reference else {
+            return;
+        };
+        // Vertices within less than a half turn lie in an open half plane
+        // through the viewpoint, so the building's points (in their convex
+        // hull) lie in the same arc; otherwise any direction may meet it.
+        if everywhere || hi - lo >= PI - 1e-6 {
+            self.spans.push((0, SECTORS as i64 - 1, farthest, height));
+        } else {
+            self.spans
+                .push((sector_of(r + lo) - 1, sector_of(r + hi) + 1, farthest, height));
+        }
+    }
+
+    /// Sorts the lists once every building is added.
+    pub fn finish(&mut self) {
+        let spread = |&(first, last, _, _): &(i64, i64, f64, f64)| {
+            if last - first + 1 >= SECTORS as i64 {
+                (0, SECTORS as i64 - 1)
+            } else {
+                (first, last)
+            }
+        };
+        self.starts.clear();
+        self.starts.resize(SECTORS + 1, 0);
+        for span in &self.spans {
+            let (first, last) = spread(span);
+            for k in first..=last {
+                self.starts[k.rem_euclid(SECTORS as i64) as usize + 1] += 1;
+            }
+        }
+        for s in 0..SECTORS {
+            self.starts[s + 1] += self.starts[s];
+        }
+        self.items.clear();
+        self.items.resize(self.starts[SECTORS] as usize, (0.0, 0.0));
+        let mut next: Vec<u32> = self.starts[..SECTORS].to_vec();
+        for span in &self.spans {
+            let (first, last) = spread(span);
+            for k in first..=last {
+                let s = k.rem_euclid(SECTORS as i64) as usize;
+                self.items[next[s] as usize] = (span.2, span.3);
+                next[s] += 1;
+            }
+        }
+        for s in 0..SECTORS {
+            let list = &mut self.items[self.starts[s] as usize..self.starts[s + 1] as usize];
+            list.sort_by(|a, b| a.0.total_cmp(&b.0));
+            for i in (0..list.len().saturating_sub(1)).rev() {
+                list[i].1 = list[i].1.max(list[i + 1].1);
+            }
+        }
+    }
+
+    /// The greatest height of the buildings listed in a sector the
+    /// directions from azimuth `from` to `to` (`to` >= `from`, at most a
+    /// turn later) meet, widened by a sector on each side, that reach at
+    /// least `distance` from the viewpoint; `None` when there are none.
+    pub fn highest(&self, from: f64, to: f64, distance: f64) -> Option<f64> {
+        let (first, last) = (sector_of(from) - 1, sector_of(to) + 1);
+        let last = last.min(first + SECTORS as i64 - 1);
+        let mut highest: Option<f64> = None;
+        for k in first..=last {
+            let s = k.rem_euclid(SECTORS as i64) as usize;
+            let list = &self.items[self.starts[s] as usize..self.starts[s + 1] as usize];
+            let i = list.partition_point(|&(d, _)| d < distance);
+            if let Some(&(_, h)) = list.get(i) {
+                highest = Some(highest.map_or(h, |m| m.max(h)));
+            }
+        }
+        highest
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::DVec2;
+    use proptest::prelude::*;
+
+    proptest! {
+        /// Every point of a polygon, seen from anywhere, lies in a sector
+        /// its building is listed in, and `highest` over directions holding
+        /// that point finds a height at least the building's.
+        #[test]
+        fn every_point_of_a_building_is_in_its_sectors(
+            origin in (-50.0f64..50.0, -50.0f64..50.0),
+            corners in prop::collection::vec((-40.0f64..40.0, -40.0f64..40.0), 3..8),
+            t in prop::collection::vec((0.0f64..1.0, 0.0f64..1.0), 1..20),
+            height in 1.0f64..60.0,
+        ) {
+            let o = DVec2::new(origin.0, origin.1);
+            let vs: Vec<DVec2> = corners.iter().map(|&(x, y)| DVec2::new(x, y)).collect();
+            let azimuth = |p: DVec2| {
+                let d = p - o;
+                (d.length_squared() > 1e-24).then(|| d.y.atan2(d.x))
+            };
+            let farthest = vs.iter().map(|v| v.distance(o)).fold(0.0, f64::max);
+            let mut beyond = HeightsBeyond::default();
+            beyond.clear();
+            beyond.add(vs.iter().map(|&v| azimuth(v)), farthest, height);
+            beyond.finish();
+            // Points in the triangles fanned from the first corner cover
+            // the convex hull's fan, hence the polygon.
+            for (k, &(u, w)) in t.iter().enumerate() {
+                let (a, b, c) = (vs[0], vs[1 + k % (vs.len() - 2)], vs[2 + k % (vs.len() - 2)]);
+                let (u, w) = if u + w > 1.0 { (1.0 - u, 1.0 - w) } else { (u, w) };
+                let p = a + (b - a) * u + (c - a) * w;
+                let Some(az) = azimuth(p) else { continue };
+                let found = beyond.highest(az, az, p.distance(o).min(farthest));
+                prop_assert!(found.is_some_and(|h| h >= height), "{p} from {o}: {found:?}");
+            }
+        }
+    }
+}
