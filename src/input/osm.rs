@@ -6,8 +6,8 @@
 //!
 //! A PBF file is compressed, so a small hostile file can decode to a
 //! thousand times its size: what is kept from it is bounded by the file's
-//! size ([`Budget`]), only the tags read are copied, and a panic inside the
-//! PBF decoder becomes an error ([`guarded`]).
+//! size (`Budget`), only the tags read are copied, and a panic inside the
+//! PBF decoder becomes an error (`guarded`).
 
 use std::collections::{BTreeMap, BTreeSet, HashMap, HashSet};
 use std::io::Cursor;

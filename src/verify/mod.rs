@@ -4,8 +4,10 @@
 //!
 //! Submodules: [`sampling`] (which cells, which viewpoints), [`sight`]
 //! (exact visibility from one point), [`edges`] (the judge's edge grid and
-//! ray walk), [`envelope`] (the horizon of one wedge of rays), and
-//! [`verify_file`] (a `.pvs` file against its city: ids, frame, cells).
+//! ray walk), [`envelope`] (the horizon of one wedge of rays), `beyond`
+//! (how high anything stands beyond a distance in a range of directions,
+//! where a walk may stop), and [`verify_file`] (a `.pvs` file against its
+//! city: ids, frame, cells).
 
 mod beyond;
 pub mod edges;

@@ -1,10 +1,13 @@
 //! Exact visibility of buildings from one viewpoint, against the original
 //! footprints at their true heights.
 //!
-//! The azimuths of all footprint vertices, of the points where footprints of
+//! The azimuths of footprint vertices, of the points where footprints of
 //! different buildings cross, and of a coarse fan cut the directions around
 //! the viewpoint into wedges. Inside one open wedge no ray passes such a
-//! point, so every ray crosses the same edges in the same order. In the
+//! point, so every ray crosses the same edges in the same order. Vertices
+//! beyond `FIRST_REACH` cut a wedge only when its walk reaches them (only
+//! the part of the wedge the walk judged has to be free of them;
+//! docs/verify.md, "Wedges cut as far as the walk goes"). In the
 //! vertical plane of a ray a building is a set of rectangles; the best point
 //! to see of one is the top of the wall the ray enters it by when it is at
 //! least as high as the eye, and otherwise the far end of its roof (or the
