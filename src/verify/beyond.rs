@@ -71,8 +71,12 @@ impl HeightsBeyond {
         if everywhere || hi - lo >= PI - 1e-6 {
             self.spans.push((0, SECTORS as i64 - 1, farthest, height));
         } else {
-            self.spans
-                .push((sector_of(r + lo) - 1, sector_of(r + hi) + 1, farthest, height));
+            self.spans.push((
+                sector_of(r + lo) - 1,
+                sector_of(r + hi) + 1,
+                farthest,
+                height,
+            ));
         }
     }
 

@@ -27,8 +27,8 @@
 
 use glam::{DVec2, DVec3};
 
-use super::edges::{Crossing, EdgeGrid, RayScratch};
 use super::beyond::HeightsBeyond;
+use super::edges::{Crossing, EdgeGrid, RayScratch};
 use super::envelope::{Envelope, Line};
 use crate::model::{
     Building, Rect, distance_to_segment, multipolygon_bounds, point_in_multipolygon, polygon_edges,
@@ -327,7 +327,10 @@ impl<'a> Judge<'a> {
                 z,
                 mid,
                 perp: mid.perp(),
-                borders: [DVec2::new(a0.cos(), a0.sin()), DVec2::new(a1.cos(), a1.sin())],
+                borders: [
+                    DVec2::new(a0.cos(), a0.sin()),
+                    DVec2::new(a1.cos(), a1.sin()),
+                ],
                 azimuths: (a0, a1),
             };
             let reach = (0.5 * width).tan();
@@ -478,8 +481,8 @@ impl<'a> Judge<'a> {
             }
         }
         dirs.extend((0..FAN_DIRECTIONS).map(|k| {
-            let a = -std::f64::consts::PI
-                + std::f64::consts::TAU * k as f64 / FAN_DIRECTIONS as f64;
+            let a =
+                -std::f64::consts::PI + std::f64::consts::TAU * k as f64 / FAN_DIRECTIONS as f64;
             (a, 0.0)
         }));
         dirs.sort_by(|p, q| p.0.total_cmp(&q.0));
