@@ -212,6 +212,26 @@ pub fn citypvs_json(dir: &std::path::Path, args: &[&str]) -> serde_json::Value {
     serde_json::from_slice(&out.stdout).expect("a JSON summary")
 }
 
+/// The buildings of a generated city in the given style, in local metres,
+/// every one an occluder.
+pub fn generated_buildings(
+    buildings: usize,
+    seed: u64,
+    style: citypvs::generate::Style,
+) -> Vec<Building> {
+    use citypvs::generate::{GenerateParams, generate_styled};
+    generate_styled(&GenerateParams { buildings, seed }, style)
+        .buildings
+        .into_iter()
+        .map(|g| Building {
+            id: g.id,
+            footprint: vec![g.footprint],
+            height: g.height,
+            occludes: true,
+        })
+        .collect()
+}
+
 /// The prepared scene of a generated city at the default settings.
 pub fn generated_scene(buildings: usize, seed: u64) -> Scene {
     use citypvs::generate::{GenerateParams, generate_geojson};

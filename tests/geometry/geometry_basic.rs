@@ -113,19 +113,7 @@ fn shrink_drops_thin_levels() {
 #[test]
 fn same_blocks_occluders_and_cells_for_any_thread_count() {
     use citypvs::cells::{CellParams, triangulate};
-    use citypvs::generate::{GenerateParams, generate_buildings};
-    let buildings: Vec<Building> = generate_buildings(&GenerateParams {
-        buildings: 300,
-        seed: 3,
-    })
-    .into_iter()
-    .map(|b| Building {
-        id: b.id,
-        footprint: vec![b.footprint],
-        height: b.height,
-        occludes: true,
-    })
-    .collect();
+    let buildings = crate::common::generated_buildings(300, 3, citypvs::generate::Style::Default);
     let run = |threads: usize| {
         rayon::ThreadPoolBuilder::new()
             .num_threads(threads)

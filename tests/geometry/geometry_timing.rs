@@ -4,26 +4,16 @@
 
 use std::time::Instant;
 
+use crate::common::generated_buildings;
 use citypvs::cells::{CellParams, triangulate};
-use citypvs::generate::{GenerateParams, generate_buildings};
+use citypvs::generate::Style;
 use citypvs::geometry::{merge_blocks, shrink_blocks};
 use citypvs::model::Building;
 use glam::DVec2;
 use std::collections::BTreeSet;
 
 fn city(n: usize) -> Vec<Building> {
-    generate_buildings(&GenerateParams {
-        buildings: n,
-        seed: 1,
-    })
-    .into_iter()
-    .map(|b| Building {
-        id: b.id,
-        footprint: vec![b.footprint],
-        height: b.height,
-        occludes: true,
-    })
-    .collect()
+    generated_buildings(n, 1, Style::Default)
 }
 
 /// The number and total length of the distinct cell edges (the visibility

@@ -2,8 +2,8 @@
 //! single viewpoints and from cells, a brute-force cross-check on random
 //! scenes, and whole-PVS verdicts (a broken PVS is caught, a superset passes).
 
-use crate::common::{block, ring_building};
-use citypvs::generate::{GenerateParams, Style, generate_styled};
+use crate::common::{block, generated_buildings, ring_building};
+use citypvs::generate::Style;
 use citypvs::model::{Building, Polygon, point_in_multipolygon, polygon_edges};
 use citypvs::verify::{Judge, Scratch, VerifyOptions, View, verify};
 use glam::{DVec2, DVec3};
@@ -555,24 +555,7 @@ fn wedges_cut_as_far_as_the_walk_goes_keep_every_verdict() {
     let mut rng = ChaCha8Rng::seed_from_u64(77);
     let mut scenes: Vec<Vec<Building>> = (0..6).map(|_| random_scene(&mut rng)).collect();
     for style in [Style::Default, Style::OldTown] {
-        let city = generate_styled(
-            &GenerateParams {
-                buildings: 150,
-                seed: 4,
-            },
-            style,
-        );
-        scenes.push(
-            city.buildings
-                .into_iter()
-                .map(|g| Building {
-                    id: g.id,
-                    footprint: vec![g.footprint],
-                    height: g.height,
-                    occludes: true,
-                })
-                .collect(),
-        );
+        scenes.push(generated_buildings(150, 4, style));
     }
     let (mut rays_cut, mut rays_every) = (0u64, 0u64);
     let mut compared = 0;

@@ -2,7 +2,8 @@
 //! figures, asserts nothing about time):
 //! `cargo test --release --test judge verify_speed:: -- --ignored --nocapture`.
 
-use citypvs::generate::{GenerateParams, generate_buildings};
+use crate::common::generated_buildings;
+use citypvs::generate::Style;
 use citypvs::model::{Building, Rect, point_in_multipolygon};
 use citypvs::verify::{VerifyOptions, verify};
 use glam::DVec2;
@@ -38,18 +39,7 @@ fn street_cells(city: &[Building], count: usize, seed: u64) -> Vec<[DVec2; 3]> {
 #[test]
 #[ignore]
 fn measure_200_cells_of_a_1000_building_city() {
-    let city: Vec<Building> = generate_buildings(&GenerateParams {
-        buildings: 1000,
-        seed: 1,
-    })
-    .into_iter()
-    .map(|g| Building {
-        id: g.id,
-        footprint: vec![g.footprint],
-        height: g.height,
-        occludes: true,
-    })
-    .collect();
+    let city = generated_buildings(1000, 1, Style::Default);
     let cells = street_cells(
         &city,
         std::env::var("VERIFY_SPEED_CELLS")
