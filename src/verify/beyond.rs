@@ -122,10 +122,11 @@ impl HeightsBeyond {
 
     /// The greatest height of the buildings listed in a sector the
     /// directions from azimuth `from` to `to` (`to` >= `from`, at most a
-    /// turn later) meet, widened by a sector on each side, that reach at
-    /// least `distance` from the viewpoint; `None` when there are none.
+    /// turn later) meet, that reach at least `distance` from the viewpoint;
+    /// `None` when there are none. (The buildings' sectors are widened, so
+    /// the directions' own are not.)
     pub fn highest(&self, from: f64, to: f64, distance: f64) -> Option<f64> {
-        let (first, last) = (sector_of(from) - 1, sector_of(to) + 1);
+        let (first, last) = (sector_of(from), sector_of(to));
         let last = last.min(first + SECTORS as i64 - 1);
         let mut highest: Option<f64> = None;
         for k in first..=last {
