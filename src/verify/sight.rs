@@ -42,6 +42,10 @@ const FAN_DIRECTIONS: usize = 16;
 /// azimuths equal up to rounding, and each neighbour's closed wedge already
 /// includes their boundary directions.
 const MIN_WEDGE: f64 = 1e-11;
+/// Crossings of a ray this near each other (relative to their distance)
+/// are at one distance: the tolerance within which the judge counts sight
+/// lines as touching.
+const TIE: f64 = 1e-9;
 /// Vertices nearer than this (metres) cut the directions into wedges from
 /// the start; farther ones cut a wedge only when its walk reaches them.
 const FIRST_REACH: f64 = 30.0;
@@ -123,6 +127,8 @@ pub struct Scratch {
     seen: Marks,
     /// Buildings the ray is inside of: (building, edge it entered by).
     open: Vec<(u32, Option<u32>)>,
+    /// Crossings at one distance, in the order they are taken.
+    ties: Vec<Crossing>,
 }
 
 /// The buildings seen so far from one viewpoint (each with a point of it
@@ -506,18 +512,50 @@ impl<'a> Judge<'a> {
             envelope,
             seen,
             open,
+            ties,
             ..
         } = scratch;
         let mut stopped_at = None;
         self.grid
             .walk(wedge.origin, wedge.mid, ray, |batch: &[Crossing]| {
-                for c in batch {
-                    match open.iter().position(|o| o.0 == c.building) {
-                        None => self.enter(wedge, c, open, envelope, seen),
-                        Some(i) => {
-                            let (b, near) = open.swap_remove(i);
-                            if near.is_some() {
-                                self.leave(wedge, b, c.edge, open, envelope, seen);
+                let mut rest = batch;
+                while !rest.is_empty() {
+                    // Crossings at the same distance (collinear edges of
+                    // buildings that share a wall or overlap) touch, so none
+                    // of them hides another: the buildings left go first,
+                    // then those entered, lowest first, so that a lower
+                    // building entered at the foot of a taller one's wall
+                    // is judged there before the taller one raises the
+                    // horizon or buries it (docs/verify.md, "Crossings at
+                    // one distance").
+                    let mut n = 1;
+                    while n < rest.len() && rest[n].t - rest[n - 1].t <= TIE * rest[n].t {
+                        n += 1;
+                    }
+                    let (group, after) = rest.split_at(n);
+                    rest = after;
+                    ties.clear();
+                    ties.extend_from_slice(group);
+                    if n > 1 {
+                        let key = |c: &Crossing| match open.iter().any(|o| o.0 == c.building) {
+                            true => (false, f64::NEG_INFINITY),
+                            false => (true, self.buildings[c.building as usize].height),
+                        };
+                        ties.sort_by(|a, b| {
+                            let (ka, kb) = (key(a), key(b));
+                            ka.0.cmp(&kb.0)
+                                .then(ka.1.total_cmp(&kb.1))
+                                .then(a.edge.cmp(&b.edge))
+                        });
+                    }
+                    for c in ties.iter() {
+                        match open.iter().position(|o| o.0 == c.building) {
+                            None => self.enter(wedge, c, open, envelope, seen),
+                            Some(i) => {
+                                let (b, near) = open.swap_remove(i);
+                                if near.is_some() {
+                                    self.leave(wedge, b, c.edge, open, envelope, seen);
+                                }
                             }
                         }
                     }

@@ -370,6 +370,39 @@ fn overlapping_footprints_are_judged_as_solids() {
     );
 }
 
+/// Parts inside an outline whose near walls lie on the outline's wall: the
+/// parts' walls are on the outline's face, so a sight line to their tops
+/// only touches the outline and they are seen, whatever order the
+/// crossings at that one distance come in (and whichever wedges the
+/// directions are cut into).
+#[test]
+fn parts_whose_walls_lie_on_a_taller_wall_are_seen() {
+    let city = vec![
+        block("outline", -30.0, -0.25, 30.0, 0.25, 22.75),
+        block("low_part", -0.25, -0.25, 0.25, 0.25, 0.25),
+        block("mid_part", 2.0, -0.25, 3.0, 0.25, 5.0),
+        block("hidden_part", 5.0, -0.1, 6.0, 0.25, 5.0),
+    ];
+    let forms = [
+        Judge::new(&city),
+        Judge::new(&city).with_first_cuts_within(0.0),
+        Judge::new(&city).with_first_cuts_within(f64::INFINITY),
+    ];
+    let mut scratch = Scratch::default();
+    for p in [
+        DVec3::new(-1.3, -1.3, 1.7),
+        DVec3::new(0.7, -4.0, 1.7),
+        DVec3::new(2.5, -9.0, 0.5),
+        DVec3::new(-20.0, -3.0, 1.7),
+    ] {
+        for judge in &forms {
+            let (seen, _) = seen_and_rays(judge, p, &mut scratch).unwrap();
+            let names: Vec<&str> = seen.iter().map(|&b| city[b as usize].id.as_str()).collect();
+            assert_eq!(names, ["outline", "low_part", "mid_part"], "from {p}");
+        }
+    }
+}
+
 // ---------------------------------------------------------------------------
 // Random scenes against the brute-force reference.
 
