@@ -534,21 +534,24 @@ impl<'a> Judge<'a> {
                     }
                     let (group, after) = rest.split_at(n);
                     rest = after;
-                    ties.clear();
-                    ties.extend_from_slice(group);
-                    if n > 1 {
+                    let group = if n == 1 {
+                        group
+                    } else {
                         let key = |c: &Crossing| match open.iter().any(|o| o.0 == c.building) {
                             true => (false, f64::NEG_INFINITY),
                             false => (true, self.buildings[c.building as usize].height),
                         };
+                        ties.clear();
+                        ties.extend_from_slice(group);
                         ties.sort_by(|a, b| {
                             let (ka, kb) = (key(a), key(b));
                             ka.0.cmp(&kb.0)
                                 .then(ka.1.total_cmp(&kb.1))
                                 .then(a.edge.cmp(&b.edge))
                         });
-                    }
-                    for c in ties.iter() {
+                        &ties[..]
+                    };
+                    for c in group {
                         match open.iter().position(|o| o.0 == c.building) {
                             None => self.enter(wedge, c, open, envelope, seen),
                             Some(i) => {
