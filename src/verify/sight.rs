@@ -58,6 +58,9 @@ const HUGE_ELEVATION: f64 = 1e30;
 /// set must hold from every point that near its triangle (docs/METHOD.md,
 /// "Cell corners on a grid"). A micrometre more allows for rounding.
 pub const MAX_SNAP: f64 = SNAP_DISTANCE + 1e-6;
+/// A viewpoint this near an occluding outline (metres) counts as on it, and
+/// is moved off it as one inside would be.
+const ON_OUTLINE: f64 = 1e-9;
 /// How far outside the outline a moved viewpoint is put (metres).
 const SNAP_CLEARANCE: f64 = 1e-6;
 /// Rings (evenly spaced out to [`MAX_SNAP`]) and points per ring searched
@@ -395,9 +398,23 @@ impl<'a> Judge<'a> {
             && point_in_multipolygon(p, &self.buildings[building].footprint)
     }
 
-    /// The occluding building `p` lies in, if any.
+    /// True when `p` lies in `building` or on its outline (within
+    /// [`ON_OUTLINE`]): a viewpoint on a wall is moved off it like one
+    /// inside, since rays that start on a wall do not see it as crossed.
+    fn holds(&self, building: usize, p: DVec2) -> bool {
+        let r = &self.bounds[building];
+        let near_bounds = r.min.x - ON_OUTLINE <= p.x
+            && p.x <= r.max.x + ON_OUTLINE
+            && r.min.y - ON_OUTLINE <= p.y
+            && p.y <= r.max.y + ON_OUTLINE;
+        near_bounds
+            && (self.contains(building, p)
+                || nearest_outline_point(&self.buildings[building], p).1 <= ON_OUTLINE)
+    }
+
+    /// The occluding building `p` lies in or on, if any.
     fn occupant(&self, p: DVec2) -> Option<usize> {
-        (0..self.buildings.len()).find(|&i| self.buildings[i].occludes && self.contains(i, p))
+        (0..self.buildings.len()).find(|&i| self.buildings[i].occludes && self.holds(i, p))
     }
 
     /// `p`, or a free point within [`MAX_SNAP`] of it when `p` lies in
@@ -425,7 +442,7 @@ impl<'a> Judge<'a> {
         let near: Vec<usize> = (0..self.buildings.len())
             .filter(|&i| self.buildings[i].occludes && self.bounds[i].intersects(&reach))
             .collect();
-        let occupant_near = |q: DVec2| near.iter().copied().find(|&i| self.contains(i, q));
+        let occupant_near = |q: DVec2| near.iter().copied().find(|&i| self.holds(i, q));
         let mut q = p;
         for _ in 0..4 {
             let Some(b) = occupant_near(q) else {

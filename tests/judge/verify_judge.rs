@@ -403,6 +403,34 @@ fn parts_whose_walls_lie_on_a_taller_wall_are_seen() {
     }
 }
 
+/// A viewpoint exactly on a wall is judged from just outside it: at ground
+/// level behind a low wall, every sight line to the tower beyond runs
+/// through the wall; from eye height it clears it.
+#[test]
+fn viewpoints_on_a_wall_are_judged_from_just_outside() {
+    let city = vec![
+        block("wall", -30.0, -2.0, 30.0, 0.0, 0.25),
+        block("tower", -26.0, -157.0, 26.0, -93.0, 63.75),
+    ];
+    let forms = [
+        Judge::new(&city),
+        Judge::new(&city).with_first_cuts_within(0.0),
+        Judge::new(&city).with_first_cuts_within(f64::INFINITY),
+    ];
+    let mut scratch = Scratch::default();
+    for (p, want) in [
+        (DVec3::new(10.4, 0.0, 0.0), &["wall"][..]),
+        (DVec3::new(30.0, 0.0, 0.0), &["wall"][..]),
+        (DVec3::new(10.4, 0.0, 1.7), &["wall", "tower"][..]),
+    ] {
+        for judge in &forms {
+            let (seen, _) = seen_and_rays(judge, p, &mut scratch).unwrap();
+            let names: Vec<&str> = seen.iter().map(|&b| city[b as usize].id.as_str()).collect();
+            assert_eq!(names, want, "from {p}");
+        }
+    }
+}
+
 // ---------------------------------------------------------------------------
 // Random scenes against the brute-force reference.
 
