@@ -300,7 +300,7 @@ impl<'a> Judge<'a> {
             }
         }
         scratch.seen.keep();
-        self.collect_azimuths(origin, scratch);
+        self.collect_directions(origin, scratch);
         let beyond = std::mem::take(&mut scratch.beyond);
         let directions = std::mem::take(&mut scratch.directions);
         let n = directions.len();
@@ -471,7 +471,7 @@ impl<'a> Judge<'a> {
     /// into `scratch.directions` (ascending by azimuth, one entry per
     /// azimuth with the least distance), and every building into
     /// `scratch.beyond`.
-    fn collect_azimuths(&self, origin: DVec2, scratch: &mut Scratch) {
+    fn collect_directions(&self, origin: DVec2, scratch: &mut Scratch) {
         let dirs = &mut scratch.directions;
         dirs.clear();
         scratch.beyond.clear();
