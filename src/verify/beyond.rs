@@ -26,6 +26,8 @@ pub struct HeightsBeyond {
     /// While building: (first sector, last sector, distance, height), the
     /// sectors counted on past the turn.
     spans: Vec<(i64, i64, f64, f64)>,
+    /// While building: where each sector's next entry goes.
+    next: Vec<u32>,
 }
 
 /// The sector of azimuth `a` (radians), not wrapped into one turn.
@@ -82,17 +84,11 @@ impl HeightsBeyond {
 
     /// Sorts the lists once every building is added.
     pub fn finish(&mut self) {
-        let spread = |&(first, last, _, _): &(i64, i64, f64, f64)| {
-            if last - first + 1 >= SECTORS as i64 {
-                (0, SECTORS as i64 - 1)
-            } else {
-                (first, last)
-            }
-        };
+        // A span is all sectors or under half a turn plus three sectors, so
+        // no building is listed twice in one sector.
         self.starts.clear();
         self.starts.resize(SECTORS + 1, 0);
-        for span in &self.spans {
-            let (first, last) = spread(span);
+        for &(first, last, _, _) in &self.spans {
             for k in first..=last {
                 self.starts[k.rem_euclid(SECTORS as i64) as usize + 1] += 1;
             }
@@ -102,13 +98,13 @@ impl HeightsBeyond {
         }
         self.items.clear();
         self.items.resize(self.starts[SECTORS] as usize, (0.0, 0.0));
-        let mut next: Vec<u32> = self.starts[..SECTORS].to_vec();
-        for span in &self.spans {
-            let (first, last) = spread(span);
+        self.next.clear();
+        self.next.extend_from_slice(&self.starts[..SECTORS]);
+        for &(first, last, distance, height) in &self.spans {
             for k in first..=last {
                 let s = k.rem_euclid(SECTORS as i64) as usize;
-                self.items[next[s] as usize] = (span.2, span.3);
-                next[s] += 1;
+                self.items[self.next[s] as usize] = (distance, height);
+                self.next[s] += 1;
             }
         }
         for s in 0..SECTORS {

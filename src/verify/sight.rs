@@ -363,10 +363,14 @@ impl<'a> Judge<'a> {
                 continue;
             }
             scratch.seen.take_back();
-            scratch.cuts.insert(0, i0);
             scratch.cuts.push(i1);
             let Scratch { wedges, cuts, .. } = &mut *scratch;
-            wedges.extend(cuts.windows(2).rev().map(|w| (w[0], w[1])));
+            // The pieces from i0 through the cuts to i1, the first on top.
+            wedges.extend(
+                (0..cuts.len())
+                    .rev()
+                    .map(|k| (if k == 0 { i0 } else { cuts[k - 1] }, cuts[k])),
+            );
         }
         scratch.beyond = beyond;
         scratch.directions = directions;
@@ -407,8 +411,9 @@ impl<'a> Judge<'a> {
             && p.x <= r.max.x + ON_OUTLINE
             && r.min.y - ON_OUTLINE <= p.y
             && p.y <= r.max.y + ON_OUTLINE;
+        let footprint = &self.buildings[building].footprint;
         near_bounds
-            && (self.contains(building, p)
+            && (point_in_multipolygon(p, footprint)
                 || nearest_outline_point(&self.buildings[building], p).1 <= ON_OUTLINE)
     }
 
