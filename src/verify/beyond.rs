@@ -109,7 +109,7 @@ impl HeightsBeyond {
         }
         for s in 0..SECTORS {
             let list = &mut self.items[self.starts[s] as usize..self.starts[s + 1] as usize];
-            list.sort_by(|a, b| a.0.total_cmp(&b.0));
+            list.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
             for i in (0..list.len().saturating_sub(1)).rev() {
                 list[i].1 = list[i].1.max(list[i + 1].1);
             }

@@ -513,7 +513,7 @@ impl<'a> Judge<'a> {
                 -std::f64::consts::PI + std::f64::consts::TAU * k as f64 / FAN_DIRECTIONS as f64;
             (a, 0.0)
         }));
-        dirs.sort_by(|p, q| p.0.total_cmp(&q.0));
+        dirs.sort_unstable_by(|p, q| p.0.total_cmp(&q.0));
         dirs.dedup_by(|later, kept| {
             let same = later.0 == kept.0;
             if same {
