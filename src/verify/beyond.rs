@@ -6,11 +6,15 @@
 //! sectors. Each building is listed in every sector its directions can meet
 //! (widened by a sector on each side), with its farthest vertex distance and
 //! its height; within a sector the list is sorted by distance and carries
-//! the greatest height of the entries from there on. A building whose
+//! the greatest height of the entries from there on. The buildings are
+//! sorted by distance once and dealt out to their sectors in that order, so
+//! each sector's list comes out sorted. A building whose
 //! vertices do not fit in a half turn (the viewpoint inside its convex
 //! hull) is listed in every sector.
 
 use std::f64::consts::{PI, TAU};
+
+use super::buckets::{Buckets, sort_in_buckets};
 
 /// Sectors per turn.
 const SECTORS: usize = 256;
@@ -18,16 +22,20 @@ const SECTORS: usize = 256;
 /// Per sector, the buildings that reach into it, by distance.
 #[derive(Debug, Default)]
 pub struct HeightsBeyond {
-    /// Sector `s` holds `items[starts[s]..starts[s + 1]]`.
+    /// Sector `s` holds entries `starts[s]..starts[s + 1]`.
     starts: Vec<u32>,
-    /// (farthest distance, greatest height of this entry and every later
-    /// one of its sector), ascending by distance within a sector.
-    items: Vec<(f64, f64)>,
+    /// Each entry's farthest distance, ascending within a sector.
+    distances: Vec<f64>,
+    /// Each entry's greatest height of itself and every later entry of its
+    /// sector.
+    heights: Vec<f64>,
     /// While building: (first sector, last sector, distance, height), the
     /// sectors counted on past the turn.
     spans: Vec<(i64, i64, f64, f64)>,
     /// While building: where each sector's next entry goes.
     next: Vec<u32>,
+    /// Working memory of the spans' sort.
+    by_distance: Buckets<(i64, i64, f64, f64)>,
 }
 
 /// The sector of azimuth `a` (radians), not wrapped into one turn.
@@ -96,22 +104,32 @@ impl HeightsBeyond {
         for s in 0..SECTORS {
             self.starts[s + 1] += self.starts[s];
         }
-        self.items.clear();
-        self.items.resize(self.starts[SECTORS] as usize, (0.0, 0.0));
+        let farthest = self.spans.iter().map(|s| s.2).fold(0.0, f64::max);
+        sort_in_buckets(
+            &mut self.spans,
+            |s| s.2,
+            (0.0, farthest),
+            &mut self.by_distance,
+        );
+        let entries = self.starts[SECTORS] as usize;
+        self.distances.clear();
+        self.distances.resize(entries, 0.0);
+        self.heights.clear();
+        self.heights.resize(entries, 0.0);
         self.next.clear();
         self.next.extend_from_slice(&self.starts[..SECTORS]);
         for &(first, last, distance, height) in &self.spans {
             for k in first..=last {
                 let s = k.rem_euclid(SECTORS as i64) as usize;
-                self.items[self.next[s] as usize] = (distance, height);
+                self.distances[self.next[s] as usize] = distance;
+                self.heights[self.next[s] as usize] = height;
                 self.next[s] += 1;
             }
         }
         for s in 0..SECTORS {
-            let list = &mut self.items[self.starts[s] as usize..self.starts[s + 1] as usize];
-            list.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+            let list = &mut self.heights[self.starts[s] as usize..self.starts[s + 1] as usize];
             for i in (0..list.len().saturating_sub(1)).rev() {
-                list[i].1 = list[i].1.max(list[i + 1].1);
+                list[i] = list[i].max(list[i + 1]);
             }
         }
     }
@@ -127,9 +145,10 @@ impl HeightsBeyond {
         let mut highest: Option<f64> = None;
         for k in first..=last {
             let s = k.rem_euclid(SECTORS as i64) as usize;
-            let list = &self.items[self.starts[s] as usize..self.starts[s + 1] as usize];
-            let i = list.partition_point(|&(d, _)| d < distance);
-            if let Some(&(_, h)) = list.get(i) {
+            let (start, end) = (self.starts[s] as usize, self.starts[s + 1] as usize);
+            let i = start + self.distances[start..end].partition_point(|&d| d < distance);
+            if i < end {
+                let h = self.heights[i];
                 highest = Some(highest.map_or(h, |m| m.max(h)));
             }
         }
@@ -175,6 +194,40 @@ mod tests {
                 let found = beyond.highest(az, az, p.distance(o).min(farthest));
                 prop_assert!(found.is_some_and(|h| h >= height), "{p} from {o}: {found:?}");
             }
+        }
+
+        /// With many buildings, `highest` is the greatest height of those
+        /// listed in the directions' sectors that reach the distance, as a
+        /// scan of every listing finds it.
+        #[test]
+        fn highest_is_the_greatest_height_that_reaches_the_distance(
+            buildings in prop::collection::vec(
+                (prop::collection::vec(-PI..PI, 1..5), 0.0f64..500.0, 1.0f64..80.0),
+                1..60,
+            ),
+            from in -PI..PI,
+            width in 0.0f64..TAU,
+            distance in 0.0f64..520.0,
+        ) {
+            let mut beyond = HeightsBeyond::default();
+            beyond.clear();
+            for (azimuths, farthest, height) in &buildings {
+                beyond.add(azimuths.iter().map(|&a| Some(a)), *farthest, *height);
+            }
+            beyond.finish();
+            let to = from + width;
+            let (first, last) = (sector_of(from), sector_of(to).min(sector_of(from) + SECTORS as i64 - 1));
+            let wanted: Vec<usize> = (first..=last).map(|k| k.rem_euclid(SECTORS as i64) as usize).collect();
+            let scan = beyond
+                .spans
+                .iter()
+                .filter(|&&(f, l, d, _)| {
+                    d >= distance
+                        && (f..=l).any(|k| wanted.contains(&(k.rem_euclid(SECTORS as i64) as usize)))
+                })
+                .map(|s| s.3)
+                .fold(None, |m: Option<f64>, h| Some(m.map_or(h, |m| m.max(h))));
+            prop_assert_eq!(beyond.highest(from, to, distance), scan);
         }
     }
 }

@@ -6,10 +6,12 @@
 //! (exact visibility from one point), [`edges`] (the judge's edge grid and
 //! ray walk), [`envelope`] (the horizon of one wedge of rays), `beyond`
 //! (how high anything stands beyond a distance in a range of directions,
-//! where a walk may stop), and [`verify_file`] (a `.pvs` file against its
+//! where a walk may stop), `buckets` (sorting by a float key in about
+//! linear time), and [`verify_file`] (a `.pvs` file against its
 //! city: ids, frame, cells).
 
 mod beyond;
+mod buckets;
 pub mod edges;
 pub mod envelope;
 mod file;

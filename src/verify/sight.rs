@@ -28,6 +28,7 @@
 use glam::{DVec2, DVec3};
 
 use super::beyond::HeightsBeyond;
+use super::buckets::{Buckets, sort_in_buckets};
 use super::edges::{Crossing, EdgeGrid, RayScratch};
 use super::envelope::{Envelope, Line};
 use crate::model::{
@@ -119,8 +120,8 @@ pub struct Scratch {
     /// azimuth, one entry per azimuth (the nearest), with the fan at
     /// distance 0.
     directions: Vec<(f64, f64)>,
-    /// Working memory of [`sort_by_azimuth`].
-    by_bucket: AzimuthBuckets,
+    /// Working memory of the directions' sort.
+    by_bucket: Buckets<(f64, f64)>,
     /// Wedges still to judge, as indices into `directions` (the second may
     /// be past the end: the same entry a turn later); the next is last.
     wedges: Vec<(usize, usize)>,
@@ -200,56 +201,6 @@ fn nearest_outline_point(building: &Building, p: DVec2) -> (DVec2, f64, DVec2) {
         }
     }
     best
-}
-
-/// Working memory of [`sort_by_azimuth`].
-#[derive(Debug, Default)]
-struct AzimuthBuckets {
-    items: Vec<(f64, f64)>,
-    starts: Vec<u32>,
-    next: Vec<u32>,
-}
-
-/// Sorts `(azimuth, distance)` pairs, azimuths in [-pi, pi], by azimuth in
-/// the order of `f64::total_cmp`: one counting pass into buckets of equal
-/// width, then each bucket on its own. The bucket is computed from the
-/// azimuth by operations that are each monotone (a sum, a product with a
-/// positive factor, truncation), so a lower azimuth never lands in a later
-/// bucket and the buckets, each sorted, follow one another in order. Pairs
-/// of equal azimuth may come in any order.
-fn sort_by_azimuth(items: &mut Vec<(f64, f64)>, memory: &mut AzimuthBuckets) {
-    use std::f64::consts::{PI, TAU};
-    // About four pairs a bucket: each small sort is nearly free.
-    let buckets = (items.len() / 4).max(1);
-    let scale = buckets as f64 / TAU;
-    let bucket = |a: f64| (((a + PI) * scale) as usize).min(buckets - 1);
-    let AzimuthBuckets {
-        items: sorted,
-        starts,
-        next,
-    } = memory;
-    starts.clear();
-    starts.resize(buckets + 1, 0);
-    for &(a, _) in items.iter() {
-        starts[bucket(a) + 1] += 1;
-    }
-    for b in 0..buckets {
-        starts[b + 1] += starts[b];
-    }
-    next.clear();
-    next.extend_from_slice(&starts[..buckets]);
-    sorted.clear();
-    sorted.resize(items.len(), (0.0, 0.0));
-    for &item in items.iter() {
-        let b = bucket(item.0);
-        sorted[next[b] as usize] = item;
-        next[b] += 1;
-    }
-    for b in 0..buckets {
-        sorted[starts[b] as usize..starts[b + 1] as usize]
-            .sort_unstable_by(|p, q| p.0.total_cmp(&q.0));
-    }
-    std::mem::swap(items, sorted);
 }
 
 /// One wedge of directions being judged.
@@ -565,7 +516,12 @@ impl<'a> Judge<'a> {
                 -std::f64::consts::PI + std::f64::consts::TAU * k as f64 / FAN_DIRECTIONS as f64;
             (a, 0.0)
         }));
-        sort_by_azimuth(dirs, &mut scratch.by_bucket);
+        sort_in_buckets(
+            dirs,
+            |d| d.0,
+            (-std::f64::consts::PI, std::f64::consts::PI),
+            &mut scratch.by_bucket,
+        );
         dirs.dedup_by(|later, kept| {
             let same = later.0 == kept.0;
             if same {
@@ -827,50 +783,5 @@ impl<'a> Judge<'a> {
             });
         }
         envelope.strictly_above(&wedge.elevation(&self.grid, last, dh))
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use proptest::prelude::*;
-    use std::f64::consts::PI;
-
-    /// Azimuths near the buckets' borders and the ends of the turn, and
-    /// both zeros, as well as any.
-    fn azimuth() -> impl Strategy<Value = f64> {
-        prop_oneof![
-            -PI..=PI,
-            Just(-PI),
-            Just(PI),
-            Just(0.0),
-            Just(-0.0),
-            (0u32..64, -3i64..=3).prop_map(|(k, ulps)| {
-                let a = -PI + std::f64::consts::TAU * k as f64 / 64.0;
-                f64::from_bits((a.to_bits() as i64 + ulps) as u64).clamp(-PI, PI)
-            }),
-        ]
-    }
-
-    proptest! {
-        /// The bucketed sort gives the azimuths in the order of a
-        /// comparison sort by `total_cmp`, and keeps every pair.
-        #[test]
-        fn sort_by_azimuth_is_a_sort_by_total_cmp(
-            pairs in proptest::collection::vec((azimuth(), 0.0f64..100.0), 0..400),
-        ) {
-            let mut bucketed = pairs.clone();
-            sort_by_azimuth(&mut bucketed, &mut AzimuthBuckets::default());
-            let mut compared = pairs.clone();
-            compared.sort_by(|p, q| p.0.total_cmp(&q.0));
-            let bits = |v: &[(f64, f64)]| v.iter().map(|p| p.0.to_bits()).collect::<Vec<_>>();
-            prop_assert_eq!(bits(&bucketed), bits(&compared));
-            let all = |v: &[(f64, f64)]| {
-                let mut b: Vec<(u64, u64)> = v.iter().map(|p| (p.0.to_bits(), p.1.to_bits())).collect();
-                b.sort_unstable();
-                b
-            };
-            prop_assert_eq!(all(&bucketed), all(&pairs));
-        }
     }
 }
