@@ -85,6 +85,11 @@ impl Rect {
         }
     }
 
+    /// True when `p` lies in the closed rectangle.
+    pub fn contains_point(&self, p: DVec2) -> bool {
+        self.min.x <= p.x && p.x <= self.max.x && self.min.y <= p.y && p.y <= self.max.y
+    }
+
     /// True when the closed rectangles share a point.
     pub fn intersects(&self, other: &Rect) -> bool {
         self.min.x <= other.max.x

@@ -175,6 +175,16 @@ impl Marks {
             self.seen[b as usize] = None;
         }
     }
+
+    /// Every building seen, ascending, with its point seen.
+    fn sightings(&self) -> impl Iterator<Item = Sighting> + '_ {
+        self.seen.iter().enumerate().filter_map(|(i, w)| {
+            w.map(|witness| Sighting {
+                building: i as u32,
+                witness,
+            })
+        })
+    }
 }
 
 /// The point of `building`'s outline nearest to `p`, the distance, and the
@@ -209,9 +219,8 @@ struct Wedge {
     z: f64,
     mid: DVec2,
     perp: DVec2,
-    /// The unit directions of its two borders.
-    borders: [DVec2; 2],
-    /// Their azimuths (radians; the second may be past pi).
+    /// The azimuths of its two borders (radians; the second may be past
+    /// pi).
     azimuths: (f64, f64),
 }
 
@@ -339,10 +348,6 @@ impl<'a> Judge<'a> {
                 z,
                 mid,
                 perp: mid.perp(),
-                borders: [
-                    DVec2::new(a0.cos(), a0.sin()),
-                    DVec2::new(a1.cos(), a1.sin()),
-                ],
                 azimuths: (a0, a1),
             };
             let reach = (0.5 * width).tan();
@@ -377,18 +382,7 @@ impl<'a> Judge<'a> {
         }
         scratch.beyond = beyond;
         scratch.directions = directions;
-        let sightings = scratch
-            .seen
-            .seen
-            .iter()
-            .enumerate()
-            .filter_map(|(i, w)| {
-                w.map(|witness| Sighting {
-                    building: i as u32,
-                    witness,
-                })
-            })
-            .collect();
+        let sightings = scratch.seen.sightings().collect();
         View::Seen {
             from: origin.extend(z),
             sightings,
@@ -397,11 +391,7 @@ impl<'a> Judge<'a> {
     }
 
     fn contains(&self, building: usize, p: DVec2) -> bool {
-        let r = &self.bounds[building];
-        r.min.x <= p.x
-            && p.x <= r.max.x
-            && r.min.y <= p.y
-            && p.y <= r.max.y
+        self.bounds[building].contains_point(p)
             && point_in_multipolygon(p, &self.buildings[building].footprint)
     }
 
@@ -409,15 +399,10 @@ impl<'a> Judge<'a> {
     /// [`ON_OUTLINE`]): a viewpoint on a wall is moved off it like one
     /// inside, since rays that start on a wall do not see it as crossed.
     fn holds(&self, building: usize, p: DVec2) -> bool {
-        let r = &self.bounds[building];
-        let near_bounds = r.min.x - ON_OUTLINE <= p.x
-            && p.x <= r.max.x + ON_OUTLINE
-            && r.min.y - ON_OUTLINE <= p.y
-            && p.y <= r.max.y + ON_OUTLINE;
-        let footprint = &self.buildings[building].footprint;
-        near_bounds
-            && (point_in_multipolygon(p, footprint)
-                || nearest_outline_point(&self.buildings[building], p).1 <= ON_OUTLINE)
+        let b = &self.buildings[building];
+        self.bounds[building].grown(ON_OUTLINE).contains_point(p)
+            && (point_in_multipolygon(p, &b.footprint)
+                || nearest_outline_point(b, p).1 <= ON_OUTLINE)
     }
 
     /// The occluding building `p` lies in or on, if any.
@@ -620,7 +605,13 @@ impl<'a> Judge<'a> {
         let from_a = e.a - wedge.origin;
         let mut spans = true;
         let mut farthest: f64 = 0.0;
-        for u in wedge.borders {
+        let (a0, a1) = wedge.azimuths;
+        // The unit directions of the borders, needed only for a wedge
+        // whose walk stopped.
+        for u in [
+            DVec2::new(a0.cos(), a0.sin()),
+            DVec2::new(a1.cos(), a1.sin()),
+        ] {
             let across = u.perp_dot(along);
             // The border ray origin + t u meets the edge at a + lambda along.
             let t = from_a.perp_dot(along) / across;
