@@ -11,6 +11,8 @@ use citypvs::generate::{GenerateParams, generate_geojson};
 use citypvs::input::{InputOptions, read_city_bytes};
 use citypvs::verify::{Judge, Scratch, View};
 use glam::DVec3;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
 
 /// Half the side of the square the viewpoints are drawn in (metres).
 const HALF_SIDE: f64 = 150.0;
@@ -38,20 +40,18 @@ fn main() {
         let t = Instant::now();
         let judge = Judge::new(&city.buildings);
         let built = t.elapsed().as_secs_f64();
-        // The same pseudo-random points for every city (the frame puts the
-        // middle of the buildings at the origin), those inside a building
-        // left out.
+        // The same random points for every city (the stream `verify` draws
+        // from, seed 1; the frame puts the middle of the buildings at the
+        // origin), those inside a building left out.
         let mut scratch = Scratch::default();
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = || {
-            state = state
-                .wrapping_mul(6_364_136_223_846_793_005)
-                .wrapping_add(1_442_695_040_888_963_407);
-            (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
+        let mut rng = ChaCha8Rng::seed_from_u64(1);
         let mut points = Vec::new();
         while points.len() < wanted {
-            let p = DVec3::new(next() * HALF_SIDE, next() * HALF_SIDE, EYE);
+            let p = DVec3::new(
+                rng.random_range(-HALF_SIDE..HALF_SIDE),
+                rng.random_range(-HALF_SIDE..HALF_SIDE),
+                EYE,
+            );
             if matches!(judge.view(p, &mut scratch), View::Seen { .. }) {
                 points.push(p);
             }
