@@ -43,6 +43,9 @@ pub struct RebakeStats {
     /// (added or changed).
     pub objects_changed_old: usize,
     pub objects_changed_new: usize,
+    /// Of the new versions, those probed (condition 3): the ones whose own
+    /// data (footprint, height, occluder flag) changed, and new ones.
+    pub objects_probed: usize,
     /// Why every cell was solved, when the previous file could not be used
     /// cell by cell (a different frame, ids that are not unique).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -170,19 +173,24 @@ pub fn rebake(
     let mut probes: Vec<(Rect, f64)> = Vec::new();
     let mut changed_new: Vec<u32> = Vec::new();
     for (j, b) in scene.city.buildings.iter().enumerate() {
-        let same = old_ids.get(b.id.as_str()).is_some_and(|&i| {
-            let (a, n) = (&old_prints[i as usize], &new_prints[j]);
-            a.object == n.object && a.block == n.block
-        });
-        if !same {
-            let r = new_prints[j].rect();
-            rects.push(r);
+        let old_print = old_ids.get(b.id.as_str()).map(|&i| &old_prints[i as usize]);
+        let n = &new_prints[j];
+        if old_print.is_some_and(|a| a.object == n.object && a.block == n.block) {
+            continue;
+        }
+        let r = n.rect();
+        rects.push(r);
+        changed_new.push(j as u32);
+        // A member whose own data are unchanged (only its block's occluders
+        // changed) is hidden wherever its old version was: probed only when
+        // its own data changed or it is new (docs/DESIGN.md).
+        if !old_print.is_some_and(|a| a.object == n.object) {
             probes.push((r, b.height));
-            changed_new.push(j as u32);
         }
     }
     stats.objects_changed_old = changed_old.iter().filter(|&&c| c).count();
-    stats.objects_changed_new = probes.len();
+    stats.objects_changed_new = changed_new.len();
+    stats.objects_probed = probes.len();
 
     // Old cells by their exact triangles (a repeated triangle matches none).
     let mut old_cell: HashMap<[u64; 6], Option<usize>> = HashMap::with_capacity(old.cell_count());
