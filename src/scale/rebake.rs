@@ -184,7 +184,7 @@ pub fn rebake(
         // A member whose own data are unchanged (only its block's occluders
         // changed) is hidden wherever its old version was: probed only when
         // its own data changed or it is new (docs/DESIGN.md).
-        if !old_print.is_some_and(|a| a.object == n.object) {
+        if old_print.is_none_or(|a| a.object != n.object) {
             probes.push((r, b.height));
         }
     }
