@@ -170,7 +170,7 @@ pub fn rebake(
             rects.push(old_prints[i].rect());
         }
     }
-    let mut probes: Vec<(Rect, f64)> = Vec::new();
+    let mut probes: Vec<u32> = Vec::new();
     let mut changed_new: Vec<u32> = Vec::new();
     for (j, b) in scene.city.buildings.iter().enumerate() {
         let old_print = old_ids.get(b.id.as_str()).map(|&i| &old_prints[i as usize]);
@@ -185,7 +185,7 @@ pub fn rebake(
         // changed) is hidden wherever its old version was: probed only when
         // its own data changed or it is new (docs/DESIGN.md).
         if old_print.is_none_or(|a| a.object != n.object) {
-            probes.push((r, b.height));
+            probes.push(j as u32);
         }
     }
     stats.objects_changed_old = changed_old.iter().filter(|&&c| c).count();

@@ -491,11 +491,11 @@ impl<'a> VisibilityEngine<'a> {
         Ok(stats)
     }
 
-    /// For each cell of `cells`: true when every `(rect, top)` of `objects`
-    /// is hidden from every sample of the cell by the horizon of the chains
-    /// nearer than it ([`Solver::probe_hidden`], with its rounding margin).
-    /// Units shared by the cells are probed once.
-    pub fn probe_cells(&self, cells: &[usize], objects: &[(Rect, f64)]) -> Vec<bool> {
+    /// For each cell of `cells`: true when every object of `objects` is
+    /// hidden from every sample of the cell by the horizon of the chains
+    /// nearer than it ([`Solver::probe_hidden`]: the object's own test,
+    /// with a rounding margin). Units shared by the cells are probed once.
+    pub fn probe_cells(&self, cells: &[usize], objects: &[u32]) -> Vec<bool> {
         if objects.is_empty() {
             return vec![true; cells.len()];
         }

@@ -418,19 +418,7 @@ impl Horizon {
     /// horizon seen from `(v, eye)`. Only valid for the parts of `rect` that
     /// lie behind every chain added so far.
     pub fn hides_rect(&self, v: DVec2, eye: f64, rect: &Rect, top: f64) -> bool {
-        self.hides_rect_by(v, eye, rect, top, 0.0)
-    }
-
-    /// [`Horizon::hides_rect`] with the needed slope raised by a relative
-    /// 1e-9 (plus 1e-12): a "hidden" here stays hidden under any rounding
-    /// of the order of a few ulps in the slopes compared (an incremental
-    /// bake's probe, src/scale/rebake.rs).
-    pub fn hides_rect_strictly(&self, v: DVec2, eye: f64, rect: &Rect, top: f64) -> bool {
-        self.hides_rect_by(v, eye, rect, top, 1e-9)
-    }
-
-    fn hides_rect_by(&self, v: DVec2, eye: f64, rect: &Rect, top: f64, margin: f64) -> bool {
-        self.hides_view(&RectView::with_margin(v, eye, rect, top, margin))
+        self.hides_view(&RectView::new(v, eye, rect, top))
     }
 
     /// [`Horizon::hides_rect`] of the rectangle `view` was made from: the
@@ -570,24 +558,23 @@ impl RectView {
 
     /// `rect` up to `top`, seen from `v` at height `eye`.
     pub fn new(v: DVec2, eye: f64, rect: &Rect, top: f64) -> Self {
-        Self::with_margin(v, eye, rect, top, 0.0)
-    }
-
-    /// With the slope needed raised by the relative `margin` (plus 1e-12)
-    /// when `margin` is positive.
-    fn with_margin(v: DVec2, eye: f64, rect: &Rect, top: f64, margin: f64) -> Self {
         let Some((r_min, (lo, hi))) = nearest_and_bins(v, rect) else {
             return Self::NEVER_HIDDEN;
         };
-        let need = slope_needed((v, eye), top, r_min, &corners(rect));
-        let need = if margin > 0.0 {
-            need + need.abs() * margin + 1e-12
-        } else {
-            need
-        };
         RectView {
             bins: Some((lo as i32, hi as i32)),
-            need,
+            need: slope_needed((v, eye), top, r_min, &corners(rect)),
+        }
+    }
+
+    /// The same view with the slope needed raised by a relative 1e-9 (plus
+    /// 1e-12): a "hidden" then stays hidden under any rounding of a few ulps
+    /// in the slopes compared (an incremental bake's probe,
+    /// src/scale/rebake.rs).
+    pub fn strictly(self) -> Self {
+        RectView {
+            need: self.need + self.need.abs() * 1e-9 + 1e-12,
+            ..self
         }
     }
 

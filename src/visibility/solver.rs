@@ -827,57 +827,70 @@ impl<'a> Solver<'a> {
         entered
     }
 
-    /// True when every `(rect, top)` of `objects` is hidden from `v` by the
-    /// horizon of the chains nearer than its rectangle, with a margin against
-    /// rounding ([`Horizon::hides_rect_strictly`]). Only chains that can meet
-    /// the directions of some rectangle are added (any subset of the chains
-    /// gives a valid, lower horizon), and each rectangle is tested, nearest
-    /// first, against the chains nearer than it. So a `true` here implies
-    /// that the solver's own horizon test of each rectangle at its distance
+    /// True when every object of `objects` (indices into the index) is
+    /// hidden from `v` by the horizon of the chains nearer than it, by the
+    /// object's own test (its hull and the distance it is queued at, as in
+    /// [`Solver::object_hidden`] for an object outside the window) with a
+    /// margin against rounding ([`RectView::strictly`]). Only chains that
+    /// can meet the directions of some object's rectangle are added (any
+    /// subset of the chains gives a valid, lower horizon), and each object
+    /// is tested, nearest first, against the chains nearer than it. So a
+    /// `true` here implies that the solver's own horizon test of each object
     /// says hidden. With [`Solver::set_skip_hidden`]`(false)` every ring out
-    /// to each rectangle is swept and every chain added before it is tested
+    /// to each object is swept and every chain added before it is tested
     /// (the same answers, slower).
-    pub fn probe_hidden(&mut self, v: DVec2, objects: &[(Rect, f64)]) -> bool {
+    pub fn probe_hidden(&mut self, v: DVec2, objects: &[u32]) -> bool {
         let index = self.index;
         let eye = self.eye;
         let mut order: Vec<(f64, usize)> = Vec::with_capacity(objects.len());
         let mut targets = Vec::with_capacity(objects.len());
+        let mut views = Vec::with_capacity(objects.len());
         // A chain nearer than a rectangle that meets its directions has its
         // points there inside the hull of `v` and the rectangle, and starts
         // within a chain's length of them.
         let mut hull = Rect::EMPTY;
         hull.include(v);
-        for (k, (rect, _)) in objects.iter().enumerate() {
-            let Some(bins) = rect_bins(v, rect) else {
+        // The union of all the rectangles, up to the highest top.
+        let mut union = Rect::EMPTY;
+        let mut highest = f64::NEG_INFINITY;
+        for (k, &o) in objects.iter().enumerate() {
+            let object = &index.objects[o as usize];
+            let Some(bins) = rect_bins(v, &object.rect) else {
                 return false;
             };
             targets.push(bins);
-            order.push((rect_distance(v, rect), k));
-            hull = hull.union(rect);
+            let (r, outside_hull) = object.distance_from(v);
+            let view = RectView::of_object(
+                v,
+                eye,
+                (&object.hull, &object.rect),
+                object.height,
+                (r, outside_hull),
+            );
+            views.push(Some(view.strictly()));
+            order.push((r, k));
+            hull = hull.union(&object.rect);
+            union = union.union(&object.rect);
+            highest = highest.max(object.height);
         }
         order.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
         // First the union of all the rectangles, at its (nearest) distance,
         // up to the highest top: if the horizon hides that, it hides each
-        // rectangle (a sub-rectangle, no nearer, no higher; the horizon at
-        // a greater distance holds more chains), without sweeping out to
-        // the farthest one.
-        let mut union = Rect::EMPTY;
-        let mut highest = f64::NEG_INFINITY;
-        for (rect, top) in objects {
-            union = union.union(rect);
-            highest = highest.max(*top);
-        }
-        let mut tests: Vec<(f64, Rect, f64, bool)> = Vec::with_capacity(order.len() + 1);
+        // object (its hull lies in a sub-rectangle, no nearer, no higher;
+        // the horizon at a greater distance holds more chains), without
+        // sweeping out to the farthest one.
+        let mut tests: Vec<(f64, RectView, bool)> = Vec::with_capacity(order.len() + 1);
         if objects.len() > 1
             && let Some(bins) = rect_bins(v, &union)
         {
             targets.push(bins);
-            tests.push((rect_distance(v, &union), union, highest, true));
+            let view = RectView::new(v, eye, &union, highest).strictly();
+            tests.push((rect_distance(v, &union), view, true));
         }
         tests.extend(
             order
                 .iter()
-                .map(|&(r, k)| (r, objects[k].0, objects[k].1, false)),
+                .filter_map(|&(r, k)| Some((r, views[k].take()?, false))),
         );
         let hull = hull.grown(4.0 * MAX_EDGE_PIECE + 1.0);
         self.horizon.clear();
@@ -899,7 +912,8 @@ impl<'a> Solver<'a> {
         let mut swept = -1;
         let mut ready = std::mem::take(&mut self.ready);
         let mut result = true;
-        for &(r, rect, top, is_union) in &tests {
+        for (r, view, is_union) in &tests {
+            let (r, is_union) = (*r, *is_union);
             let rings = ((r / index.bucket_size()).ceil() as i64 + 1).min(max_ring);
             // The rectangle is tested after every ring: the chains nearer
             // than it found so far are some of those nearer than it, whose
@@ -909,7 +923,7 @@ impl<'a> Solver<'a> {
                 ready.clear();
                 self.chains.take_nearer(r, &mut ready);
                 add_ready_chains(&mut self.horizon, index, v, eye, &ready);
-                let hidden = self.horizon.hides_rect_strictly(v, eye, &rect, top);
+                let hidden = self.horizon.hides_view(view);
                 if (hidden && skips) || swept >= rings {
                     break hidden;
                 }

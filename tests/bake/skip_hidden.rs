@@ -92,8 +92,7 @@ fn compare_probes(scene: &Scene, points: usize) -> (usize, usize) {
     let mut fast = Solver::new(&index, params.eye_height, params.near_field);
     let mut full = Solver::new(&index, params.eye_height, params.near_field);
     full.set_skip_hidden(false);
-    let objects: Vec<(citypvs::model::Rect, f64)> =
-        index.objects.iter().map(|o| (o.rect, o.height)).collect();
+    let objects: Vec<u32> = (0..index.objects.len() as u32).collect();
     let step = (topo.vertices.len() / points.max(1)).max(1);
     let (mut hidden, mut seen) = (0, 0);
     for (k, &v) in topo.vertices.iter().step_by(step).enumerate() {
