@@ -867,7 +867,7 @@ impl<'a> Solver<'a> {
                 object.height,
                 (r, outside_hull),
             );
-            views.push(Some(view.strictly()));
+            views.push(view.strictly());
             order.push((r, k));
             hull = hull.union(&object.rect);
             union = union.union(&object.rect);
@@ -887,11 +887,7 @@ impl<'a> Solver<'a> {
             let view = RectView::new(v, eye, &union, highest).strictly();
             tests.push((rect_distance(v, &union), view, true));
         }
-        tests.extend(
-            order
-                .iter()
-                .filter_map(|&(r, k)| Some((r, views[k].take()?, false))),
-        );
+        tests.extend(order.iter().map(|&(r, k)| (r, views[k], false)));
         let hull = hull.grown(4.0 * MAX_EDGE_PIECE + 1.0);
         self.horizon.clear();
         // Only the bins of the rectangles are read below: those of their
@@ -912,10 +908,9 @@ impl<'a> Solver<'a> {
         let mut swept = -1;
         let mut ready = std::mem::take(&mut self.ready);
         let mut result = true;
-        for (r, view, is_union) in &tests {
-            let (r, is_union) = (*r, *is_union);
+        for &(r, ref view, is_union) in &tests {
             let rings = ((r / index.bucket_size()).ceil() as i64 + 1).min(max_ring);
-            // The rectangle is tested after every ring: the chains nearer
+            // Each test is made again after every ring: the chains nearer
             // than it found so far are some of those nearer than it, whose
             // horizon is no lower in any bin, so "hidden" by them is final.
             // "Not hidden" is final only once every ring out to it is swept.
