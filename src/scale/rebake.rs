@@ -178,8 +178,7 @@ pub fn rebake(
         if old_print.is_some_and(|a| a.object == n.object && a.block == n.block) {
             continue;
         }
-        let r = n.rect();
-        rects.push(r);
+        rects.push(n.rect());
         changed_new.push(j as u32);
         // A member whose own data are unchanged (only its block's occluders
         // changed) is hidden wherever its old version was: probed only when

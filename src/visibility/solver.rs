@@ -842,14 +842,10 @@ impl<'a> Solver<'a> {
     pub fn probe_hidden(&mut self, v: DVec2, objects: &[u32]) -> bool {
         let index = self.index;
         let eye = self.eye;
-        let mut order: Vec<(f64, usize)> = Vec::with_capacity(objects.len());
+        // Each object's distance, its place in `objects` (for a fixed
+        // order among equal distances) and its view.
+        let mut members: Vec<(f64, usize, RectView)> = Vec::with_capacity(objects.len());
         let mut targets = Vec::with_capacity(objects.len());
-        let mut views = Vec::with_capacity(objects.len());
-        // A chain nearer than a rectangle that meets its directions has its
-        // points there inside the hull of `v` and the rectangle, and starts
-        // within a chain's length of them.
-        let mut hull = Rect::EMPTY;
-        hull.include(v);
         // The union of all the rectangles, up to the highest top.
         let mut union = Rect::EMPTY;
         let mut highest = f64::NEG_INFINITY;
@@ -867,34 +863,38 @@ impl<'a> Solver<'a> {
                 object.height,
                 (r, outside_hull),
             );
-            views.push(view.strictly());
-            order.push((r, k));
-            hull = hull.union(&object.rect);
+            members.push((r, k, view.strictly()));
             union = union.union(&object.rect);
             highest = highest.max(object.height);
         }
-        order.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+        members.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+        let union_bins = rect_bins(v, &union);
         // First the union of all the rectangles, at its (nearest) distance,
         // up to the highest top: if the horizon hides that, it hides each
         // object (its hull lies in a sub-rectangle, no nearer, no higher;
         // the horizon at a greater distance holds more chains), without
         // sweeping out to the farthest one.
-        let mut tests: Vec<(f64, RectView, bool)> = Vec::with_capacity(order.len() + 1);
+        let mut tests: Vec<(f64, RectView, bool)> = Vec::with_capacity(members.len() + 1);
         if objects.len() > 1
-            && let Some(bins) = rect_bins(v, &union)
+            && let Some(bins) = union_bins
         {
             targets.push(bins);
             let view = RectView::new(v, eye, &union, highest).strictly();
             tests.push((rect_distance(v, &union), view, true));
         }
-        tests.extend(order.iter().map(|&(r, k)| (r, views[k], false)));
+        tests.extend(members.iter().map(|&(r, _, view)| (r, view, false)));
+        // A chain nearer than a rectangle that meets its directions has its
+        // points there inside the hull of `v` and the rectangle, and starts
+        // within a chain's length of them.
+        let mut hull = union;
+        hull.include(v);
         let hull = hull.grown(4.0 * MAX_EDGE_PIECE + 1.0);
         self.horizon.clear();
         // Only the bins of the rectangles are read below: those of their
         // union hold them all. (Not with the skips off: then every chain is
         // added and every ring swept, for tests to compare with.)
         let skips = self.horizon.skip_hidden;
-        if skips && let Some(bins) = rect_bins(v, &union) {
+        if skips && let Some(bins) = union_bins {
             self.horizon.restrict_to_bins(bins);
         }
         self.chains.clear();
@@ -981,10 +981,7 @@ impl<'a> Solver<'a> {
         // samples), so it would hold that point of the edge too. Leaving
         // the others out before the sort keeps the order of the rest, so
         // the same edges are drawn and dropped in the same order.
-        debug_assert!(
-            rect.intersects(&Rect::of_points(&[v])),
-            "the eye lies outside the window"
-        );
+        debug_assert!(rect.contains_point(v), "the eye lies outside the window");
         let eye = self.eye;
         index.edges_near(&rect, |e| {
             let (a, b) = index.edge_points(e);

@@ -16,13 +16,8 @@ use glam::DVec2;
 #[test]
 fn the_probe_says_hidden_where_the_bake_does_on_kotka() {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/kotka.geojson");
-    let bytes = std::fs::read(&path).expect("fixtures/kotka.geojson");
-    let city = citypvs::input::read_city_bytes(
-        &bytes,
-        "kotka.geojson",
-        &citypvs::input::InputOptions::default(),
-    )
-    .expect("read Kotka");
+    let city = citypvs::input::read_city(&path, &citypvs::input::InputOptions::default())
+        .expect("read Kotka");
     let scene = citypvs::prepare::prepare(city, &citypvs::Settings::default()).expect("prepare");
     let params = &scene.settings;
     let index = SceneIndex::build(&scene.city.buildings, &scene.occluders, params.pixel);
