@@ -187,6 +187,11 @@ pub fn rebake(
             probes.push(j as u32);
         }
     }
+    // A member whose footprint did not move has the same rectangle in both
+    // cities; every use of the list asks whether some rectangle does
+    // something, so each is kept once.
+    rects.sort_unstable_by_key(|r| [r.min.x, r.min.y, r.max.x, r.max.y].map(f64::to_bits));
+    rects.dedup();
     stats.objects_changed_old = changed_old.iter().filter(|&&c| c).count();
     stats.objects_changed_new = changed_new.len();
     stats.objects_probed = probes.len();

@@ -26,7 +26,7 @@ use glam::{DVec2, DVec3};
 use rayon::prelude::*;
 
 use super::bitset::ObjectSet;
-use super::horizon::{Cover, bins_overlap, covering_bins, rect_bins};
+use super::horizon::{BinMask, Cover, bins_overlap, covering_of, rect_bins};
 use super::index::{ObjectRaster, SceneIndex};
 use super::samples::{MeshTopology, cell_sample_points};
 use super::solver::{Solver, rect_distance};
@@ -693,23 +693,40 @@ impl<'a> VisibilityEngine<'a> {
         changed: &[Rect],
     ) -> Vec<u32> {
         let mut seen: Vec<u32> = Vec::new();
+        // The objects still to decide (those seen at an earlier sample
+        // count as decided), with, per sample, each one tested there and its
+        // bins from the sample.
+        let mut everywhere = w.everywhere.clone();
+        let mut where_changed = w.where_changed.clone();
+        let mut tested_here: Vec<bool> = Vec::with_capacity(where_changed.len());
         let mut todo: Vec<u32> = Vec::new();
+        let mut todo_bins: Vec<Option<(i64, i64)>> = Vec::new();
         let object = |o: u32| &self.index.objects[o as usize];
-        let rect = |o: u32| &object(o).rect;
         for p in self.unit_points(unit) {
             todo.clear();
-            todo.extend(w.everywhere.iter().copied().filter(|o| !seen.contains(o)));
-            if !w.where_changed.is_empty() {
+            todo_bins.clear();
+            tested_here.clear();
+            for &o in &everywhere {
+                todo.push(o);
+                todo_bins.push(rect_bins(p, &object(o).rect));
+            }
+            if !where_changed.is_empty() {
                 // A sample inside a changed rectangle tests them all.
                 let dirs = ChangeDirections::at(p, changed);
-                todo.extend(w.where_changed.iter().copied().filter(|&o| {
-                    !seen.contains(&o) && dirs.as_ref().is_none_or(|d| d.holds(object(o)))
-                }));
+                for &o in &where_changed {
+                    let bins = rect_bins(p, &object(o).rect);
+                    let tested = dirs.as_ref().is_none_or(|d| d.holds_with(object(o), bins));
+                    if tested {
+                        todo.push(o);
+                        todo_bins.push(bins);
+                    }
+                    tested_here.push(tested);
+                }
             }
             if todo.is_empty() {
                 continue;
             }
-            let interest = match covering_bins(p, todo.iter().map(|&o| rect(o))) {
+            let interest = match covering_of(todo_bins.iter().copied()) {
                 Cover::Bins(lo, hi) => Some((lo, hi)),
                 Cover::Nothing | Cover::Everything => None,
             };
@@ -718,7 +735,14 @@ impl<'a> VisibilityEngine<'a> {
                 set.remove(o as usize);
             }
             solver.solve_point_for(p, interest, &todo, set);
-            seen.extend(todo.iter().copied().filter(|&o| set.contains(o as usize)));
+            let found = |o: &u32| set.contains(*o as usize);
+            seen.extend(todo.iter().filter(|o| found(o)));
+            everywhere.retain(|o| !found(o));
+            let mut tested = tested_here.iter();
+            where_changed.retain(|o| {
+                let tested = tested.next().is_some_and(|&t| t);
+                !(tested && found(o))
+            });
         }
         seen.sort_unstable();
         seen
@@ -869,10 +893,13 @@ pub struct WantedObjects {
 
 /// Seen from one point, the directions of a set of changed rectangles:
 /// per rectangle its bins (of [`rect_bins`], grown by a bin on each side)
-/// and its nearest distance.
+/// and its nearest distance, and the union of those bins.
 pub struct ChangeDirections {
     p: DVec2,
     dirs: Vec<(i64, i64, f64)>,
+    /// Every bin of some rectangle's grown bins: a range that misses it
+    /// overlaps none of them.
+    union: BinMask,
 }
 
 impl ChangeDirections {
@@ -882,7 +909,11 @@ impl ChangeDirections {
             .iter()
             .map(|r| rect_bins(p, r).map(|(a, b)| (a - 1, b + 1, rect_distance(p, r))))
             .collect::<Option<Vec<_>>>()?;
-        Some(ChangeDirections { p, dirs })
+        let mut union = BinMask::default();
+        for &(a, b, _) in &dirs {
+            union.insert(a, b);
+        }
+        Some(ChangeDirections { p, dirs, union })
     }
 
     /// Whether an object lies farther than some changed rectangle (at the
@@ -893,9 +924,19 @@ impl ChangeDirections {
     /// enters before an item only when it is nearer, and raises only bins
     /// inside its rectangle's).
     pub fn holds(&self, object: &ObjectRaster) -> bool {
-        let Some(bins) = rect_bins(self.p, &object.rect) else {
+        self.holds_with(object, rect_bins(self.p, &object.rect))
+    }
+
+    /// [`Self::holds`] given the object's [`rect_bins`] from the point.
+    pub fn holds_with(&self, object: &ObjectRaster, bins: Option<(i64, i64)>) -> bool {
+        let Some(bins) = bins else {
             return true;
         };
+        // Its bins meet none of the rectangles' (the union's test is the
+        // overlap test of each range in turn), so its distance is not needed.
+        if !self.union.meets(bins.0, bins.1) {
+            return false;
+        }
         let (d, _) = object.distance_from(self.p);
         self.dirs
             .iter()
@@ -905,14 +946,13 @@ impl ChangeDirections {
     /// Whether a pyramid node with this rectangle may hold an object that
     /// [`Self::holds`]: its bins, grown by one more bin against rounding,
     /// meet those of a changed rectangle (the bins of everything below a
-    /// node lie in the node's).
+    /// node lie in the node's). Growing the node's bins by one instead of
+    /// each rectangle's asks the same of each pair.
     pub fn may_hold(&self, rect: &Rect) -> bool {
         let Some(bins) = rect_bins(self.p, rect) else {
             return true;
         };
-        self.dirs
-            .iter()
-            .any(|&(a, b, _)| bins_overlap(bins, (a - 1, b + 1)))
+        self.union.meets(bins.0 - 1, bins.1 + 1)
     }
 }
 

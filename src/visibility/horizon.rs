@@ -66,6 +66,10 @@ pub struct Horizon {
     /// caller knows them: a chain whose arc raises none of them is not
     /// added, which leaves those bins as they would be.
     interest: Option<(i64, i64)>,
+    /// The groups of GROUP bins in which some bin was raised since the
+    /// last [`Horizon::clear`], one bit each: every other bin is still at
+    /// minus infinity.
+    touched: u64,
 }
 
 impl Default for Horizon {
@@ -88,6 +92,7 @@ impl Default for Horizon {
             holders: vec![0; BINS],
             skip_hidden: true,
             interest: None,
+            touched: 0,
         }
     }
 }
@@ -204,8 +209,12 @@ fn wrap(bin: i64) -> usize {
 impl Horizon {
     /// Back to "nothing is known", every bin of interest.
     pub fn clear(&mut self) {
-        self.slopes.fill(f64::NEG_INFINITY);
-        self.group_min.fill(f64::NEG_INFINITY);
+        while self.touched != 0 {
+            let g = self.touched.trailing_zeros() as usize;
+            self.touched &= self.touched - 1;
+            self.slopes[g * GROUP..(g + 1) * GROUP].fill(f64::NEG_INFINITY);
+            self.group_min[g] = f64::NEG_INFINITY;
+        }
         self.interest = None;
     }
 
@@ -375,6 +384,7 @@ impl Horizon {
                     }
                     *s = raised;
                     self.holders[w] = tag;
+                    self.touched |= 1 << (w / GROUP);
                 }
             }
         }
@@ -766,30 +776,35 @@ pub enum Cover {
 
 /// The directions from `v` that the rectangles `rects` cover.
 pub fn covering_bins<'r>(v: DVec2, rects: impl Iterator<Item = &'r Rect>) -> Cover {
+    covering_of(rects.map(|rect| rect_bins(v, rect)))
+}
+
+/// The directions that ranges of bins cover, each as [`rect_bins`] gives
+/// it (`None` for a rectangle the point is in): [`covering_bins`] of
+/// rectangles whose bins are already known.
+pub fn covering_of(ranges: impl Iterator<Item = Option<(i64, i64)>>) -> Cover {
     let n = BINS as i64;
-    let mut covered = vec![false; BINS];
+    let mut covered = BinMask::default();
     let mut any = false;
-    for rect in rects {
-        let Some((lo, hi)) = rect_bins(v, rect) else {
+    for range in ranges {
+        let Some((lo, hi)) = range else {
             return Cover::Everything;
         };
         if hi - lo + 1 >= n {
             return Cover::Everything;
         }
         any = true;
-        for b in lo..=hi {
-            covered[wrap(b)] = true;
-        }
+        covered.insert(lo, hi);
     }
     if !any {
         return Cover::Nothing;
     }
     // The longest run of uncovered bins, going round once from a covered
     // bin; the range is the rest of the turn.
-    let start = covered.iter().position(|&c| c).expect("a bin is covered") as i64;
+    let start = covered.first().expect("a bin is covered") as i64;
     let (mut best, mut best_end, mut run) = (0i64, start, 0i64);
     for k in 1..=n {
-        if covered[wrap(start + k)] {
+        if covered.contains(start + k) {
             if run > best {
                 best = run;
                 best_end = start + k;
@@ -805,6 +820,81 @@ pub fn covering_bins<'r>(v: DVec2, rects: impl Iterator<Item = &'r Rect>) -> Cov
     // Bins best_end .. best_end + (n - best) - 1 hold every covered bin.
     let lo = best_end.rem_euclid(n);
     Cover::Bins(lo, lo + n - best - 1)
+}
+
+/// A set of bins modulo a turn, one bit each: the union of ranges of
+/// bins, asked whether a range meets it as [`bins_overlap`] would ask of
+/// each range in turn.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct BinMask([u64; BINS / 64]);
+
+impl Default for BinMask {
+    fn default() -> Self {
+        BinMask([0; BINS / 64])
+    }
+}
+
+impl BinMask {
+    /// Adds the bins `lo..=hi` (unwrapped: any integers; a range of a turn
+    /// or more adds every bin).
+    pub fn insert(&mut self, lo: i64, hi: i64) {
+        Self::for_each_word(lo, hi, |w, bits| self.0[w] |= bits);
+    }
+
+    /// Whether some bin of `lo..=hi` (unwrapped; a range of a turn or more
+    /// holds every bin) is in the set.
+    pub fn meets(&self, lo: i64, hi: i64) -> bool {
+        let mut met = false;
+        Self::for_each_word(lo, hi, |w, bits| met |= self.0[w] & bits != 0);
+        met
+    }
+
+    /// Whether bin `b` (unwrapped) is in the set.
+    pub fn contains(&self, b: i64) -> bool {
+        let w = wrap(b);
+        self.0[w / 64] >> (w % 64) & 1 != 0
+    }
+
+    /// The lowest bin in the set (in `0..BINS`), if any.
+    pub fn first(&self) -> Option<usize> {
+        self.0
+            .iter()
+            .position(|&w| w != 0)
+            .map(|i| i * 64 + self.0[i].trailing_zeros() as usize)
+    }
+
+    /// Calls `f(word, bits)` for the words and bits of the bins `lo..=hi`
+    /// taken modulo a turn (nothing when `hi < lo`).
+    fn for_each_word(lo: i64, hi: i64, mut f: impl FnMut(usize, u64)) {
+        if hi < lo {
+            return;
+        }
+        let n = BINS;
+        let len = (hi - lo + 1).min(n as i64) as usize;
+        let start = wrap(lo);
+        let mut bits = |a: usize, b: usize| {
+            // Bins a..b, within 0..=n.
+            let mut k = a;
+            while k < b {
+                let w = k / 64;
+                let end = b.min((w + 1) * 64);
+                let count = end - k;
+                let run = if count == 64 {
+                    u64::MAX
+                } else {
+                    ((1u64 << count) - 1) << (k % 64)
+                };
+                f(w, run);
+                k = end;
+            }
+        };
+        if start + len <= n {
+            bits(start, start + len);
+        } else {
+            bits(start, n);
+            bits(0, start + len - n);
+        }
+    }
 }
 
 /// Whether two ranges of bins (`lo..=hi`, unwrapped: any integers) share a
@@ -1005,6 +1095,57 @@ mod tests {
         assert!(matches!(covering_bins(v, four.iter()), Cover::Bins(..)));
         assert_eq!(covering_bins(v, [].iter()), Cover::Nothing);
         assert_eq!(covering_bins(v, [at(0.5, 0.0)].iter()), Cover::Everything);
+    }
+
+    proptest::proptest! {
+        /// A union of ranges meets a range exactly when one of the ranges
+        /// overlaps it ([`bins_overlap`]), and holds exactly their bins;
+        /// the covering range holds every bin of every range and leaves out
+        /// the longest run of bins none of them holds.
+        #[test]
+        fn a_union_of_ranges_answers_as_its_ranges_do(
+            ranges in proptest::collection::vec((-3 * BINS as i64..3 * BINS as i64, 0i64..2 * BINS as i64), 0..6),
+            probe in (-3 * BINS as i64..3 * BINS as i64, 0i64..2 * BINS as i64),
+        ) {
+            let n = BINS as i64;
+            let ranges: Vec<(i64, i64)> = ranges.iter().map(|&(lo, len)| (lo, lo + len % (n + 8))).collect();
+            let mut union = BinMask::default();
+            for &(lo, hi) in &ranges {
+                union.insert(lo, hi);
+            }
+            let probe = (probe.0, probe.0 + probe.1 % (n + 8));
+            let overlaps = ranges.iter().any(|&r| bins_overlap(r, probe));
+            proptest::prop_assert_eq!(union.meets(probe.0, probe.1), overlaps);
+            for b in 0..n {
+                let held = ranges.iter().any(|&r| bins_overlap(r, (b, b)));
+                proptest::prop_assert_eq!(union.contains(b), held);
+                proptest::prop_assert_eq!(union.contains(b + n), held);
+            }
+            match covering_of(ranges.iter().map(|&r| Some(r))) {
+                Cover::Nothing => proptest::prop_assert!(ranges.is_empty()),
+                Cover::Everything => {
+                    // A whole turn, or no bin left out by every range.
+                    let full = ranges.iter().any(|&(lo, hi)| hi - lo + 1 >= n);
+                    proptest::prop_assert!(full || (0..n).all(|b| union.contains(b)));
+                }
+                Cover::Bins(lo, hi) => {
+                    proptest::prop_assert!((0..n).contains(&lo) && hi >= lo && hi - lo < n);
+                    // Every held bin lies in the range, modulo a turn.
+                    for b in 0..n {
+                        if union.contains(b) {
+                            proptest::prop_assert!(bins_overlap((b, b), (lo, hi)));
+                        }
+                    }
+                    // No run of free bins is longer than the one left out.
+                    let left_out = n - (hi - lo + 1);
+                    let mut run = 0;
+                    for b in 0..2 * n {
+                        run = if union.contains(b) { 0 } else { run + 1 };
+                        proptest::prop_assert!(run <= left_out);
+                    }
+                }
+            }
+        }
     }
 
     proptest::proptest! {

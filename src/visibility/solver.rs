@@ -163,6 +163,8 @@ struct ChainQueue {
     slots: Vec<Vec<QueuedChain>>,
     /// Every slot below this one is empty.
     first: usize,
+    /// Every slot from this one on is empty.
+    end: usize,
     len: usize,
     /// The first pieces whose chain was queued since the last
     /// [`ChainQueue::clear`], as a set and as a list (to clear the set).
@@ -176,6 +178,7 @@ impl ChainQueue {
         ChainQueue {
             slots: Vec::new(),
             first: 0,
+            end: 0,
             len: 0,
             queued: ObjectSet::new(pieces),
             marked: Vec::new(),
@@ -183,11 +186,12 @@ impl ChainQueue {
     }
 
     fn clear(&mut self) {
-        let start = self.first.min(self.slots.len());
-        for slot in &mut self.slots[start..] {
+        let start = self.first.min(self.end);
+        for slot in &mut self.slots[start..self.end] {
             slot.clear();
         }
         self.first = 0;
+        self.end = 0;
         self.len = 0;
         for e in self.marked.drain(..) {
             self.queued.remove(e as usize);
@@ -224,6 +228,7 @@ impl ChainQueue {
             self.slots.resize_with(slot + 1, Vec::new);
         }
         self.slots[slot].push(QueuedChain::new(d, e, pieces, bucket));
+        self.end = self.end.max(slot + 1);
         self.len += 1;
     }
 
