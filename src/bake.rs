@@ -35,9 +35,14 @@ pub struct SetTally {
 impl SetTally {
     /// Count one cell's set.
     pub fn add(&mut self, set: &[u32]) {
+        self.add_len(set.len());
+    }
+
+    /// Count one more set, of `len` objects.
+    pub fn add_len(&mut self, len: usize) {
         self.cells += 1;
-        self.total += set.len();
-        self.max = self.max.max(set.len());
+        self.total += len;
+        self.max = self.max.max(len);
     }
 
     /// The statistics of the sets counted.

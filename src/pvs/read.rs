@@ -207,8 +207,9 @@ impl PvsReader {
         let at = self.parsed.index_at + 8 * b;
         u64::from_le_bytes(self.bytes[at..at + 8].try_into().unwrap()) as usize
     }
-    /// The bytes of block `b`.
-    fn block(&self, b: usize) -> &[u8] {
+    /// The coded bytes of block `b` (docs/FORMAT.md, "Blocks"); `b` must
+    /// hold a cell.
+    pub fn coded_block(&self, b: usize) -> &[u8] {
         &self.bytes[self.parsed.blocks_at + self.block_offset(b)
             ..self.parsed.blocks_at + self.block_offset(b + 1)]
     }
@@ -240,7 +241,7 @@ impl PvsReader {
         let whole = (b * self.parsed.block_cells + last + 1 == self.cell_count())
             || last + 1 == self.parsed.block_cells;
         decode_block(
-            self.block(b),
+            self.coded_block(b),
             self.parsed.object_ids.len() as u32,
             self.parsed.block_cells,
             b,
@@ -278,6 +279,24 @@ impl PvsReader {
             Ok(())
         })?;
         Ok(sets)
+    }
+    /// How many objects each cell of block `b` sees, in order (decoding
+    /// the block, without mapping the sets to input indices).
+    pub fn block_set_lens(&self, b: usize) -> Result<Vec<usize>> {
+        if b * self.parsed.block_cells >= self.cell_count() {
+            return Err(Error::format(format!("there is no block {b}")));
+        }
+        let mut lens = Vec::with_capacity(self.last_in_block(b) + 1);
+        self.decode_block(b, self.last_in_block(b), |_, ranks, _| {
+            lens.push(ranks.len());
+            Ok(())
+        })?;
+        Ok(lens)
+    }
+    /// The input index of the object of each rank of the file's spatial
+    /// numbering (docs/FORMAT.md, "Objects").
+    pub fn input_of_rank(&self) -> &[u32] {
+        &self.parsed.input_of_rank
     }
     /// Input ids of the objects visible from the cell.
     pub fn visible_ids(&self, cell: usize) -> Result<Vec<&str>> {

@@ -721,11 +721,49 @@ pub fn encode_parts(head: &Part, parts: &[&Part]) -> Result<(Vec<u8>, WriteStats
 /// blocks, not of the sets (docs/DESIGN.md, "Finished cells").
 pub struct PartBuilder {
     part: Part,
-    /// Spatial rank of each object index (the file's numbering).
-    rank_of: Vec<u32>,
+    numbering: Numbering,
     /// The open block's cells (the part's tail), coded so far.
     block: BlockEncoder,
     ranks: Vec<u32>,
+}
+
+/// The file's spatial numbering of the objects, in which blocks code their
+/// sets.
+#[derive(Clone)]
+pub struct Numbering {
+    /// Spatial rank of each object index.
+    rank_of: Vec<u32>,
+}
+
+impl Numbering {
+    /// Whether this is the numbering that gives each rank the input index
+    /// `input_of_rank[rank]` (a file's): then a block of that file holds
+    /// the bytes [`Numbering::code_block`] gives for the same sets (a
+    /// block's bytes depend only on its cells' sets in the numbering).
+    pub fn is(&self, input_of_rank: &[u32]) -> bool {
+        input_of_rank.len() == self.rank_of.len()
+            && input_of_rank
+                .iter()
+                .enumerate()
+                .all(|(rank, &i)| self.rank_of.get(i as usize) == Some(&(rank as u32)))
+    }
+
+    /// The bytes of a whole block of `sets` (ascending object indices):
+    /// what [`PartBuilder::push`] codes for them when they fill a block.
+    pub fn code_block<'s>(&self, sets: impl Iterator<Item = &'s [u32]>) -> Vec<u8> {
+        let mut block = BlockEncoder::new(self.rank_of.len() as u32, BLOCK_CELLS);
+        let mut ranks = Vec::new();
+        for set in sets {
+            self.code(set, &mut block, &mut ranks);
+        }
+        block.finish()
+    }
+
+    /// Code one cell's set into `block` (`ranks` is scratch).
+    fn code(&self, set: &[u32], block: &mut BlockEncoder, ranks: &mut Vec<u32>) {
+        crate::pvs::set_ranks(set, &self.rank_of, ranks);
+        block.push(ranks);
+    }
 }
 
 impl PartBuilder {
@@ -742,7 +780,7 @@ impl PartBuilder {
         let mut builder = PartBuilder {
             block: BlockEncoder::new(n as u32, BLOCK_CELLS),
             part,
-            rank_of,
+            numbering: Numbering { rank_of },
             ranks: Vec::new(),
         };
         // The tail's cells were coded into the open block before the
@@ -801,10 +839,37 @@ impl PartBuilder {
         }
     }
 
+    /// Add the range's next `cells` cells as one whole block already coded
+    /// in this builder's numbering ([`PartBuilder::numbering`]): they
+    /// must start a block of the file and fill it, or end the bake.
+    pub fn push_coded_block(&mut self, cells: usize, bytes: &[u8]) {
+        let p = &mut self.part;
+        let k = p.done();
+        let (start, end) = (p.range_start + k as u64, p.range_start + (k + cells) as u64);
+        let block = u64::from(BLOCK_CELLS);
+        assert!(
+            k >= p.head_len() && p.loose_lens.len() == p.head_len(),
+            "a coded block cannot follow cells of an open block"
+        );
+        assert!(
+            start.is_multiple_of(block)
+                && cells > 0
+                && end <= p.range_end
+                && (end - start == block || end == p.total_cells),
+            "a coded block must be a whole block of the file"
+        );
+        p.block_lens.push(bytes.len() as u32);
+        p.blocks.extend_from_slice(bytes);
+    }
+
+    /// The numbering the sets are coded in.
+    pub fn numbering(&self) -> &Numbering {
+        &self.numbering
+    }
+
     /// Code a tail cell's set into the open block.
     fn code(&mut self, set: &[u32]) {
-        crate::pvs::set_ranks(set, &self.rank_of, &mut self.ranks);
-        self.block.push(&self.ranks);
+        self.numbering.code(set, &mut self.block, &mut self.ranks);
     }
 }
 
@@ -1002,6 +1067,42 @@ mod tests {
             write_parts(&path, refs[0], &refs).unwrap();
             assert!(std::fs::read(&path).unwrap() == expected, "{bounds:?}");
         }
+    }
+
+    #[test]
+    fn whole_blocks_coded_apart_or_copied_from_a_file_make_the_same_part() {
+        let (total, objects) = (1300u64, 90u32);
+        let sets = some_sets(total, objects);
+        let mut by_cell = PartBuilder::new(blank(total, 0..total, objects, 0, 1)).unwrap();
+        for set in &sets {
+            by_cell.push(set);
+        }
+        let by_cell = by_cell.into_part();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a.pvs");
+        write_parts(&path, &by_cell, &[&by_cell]).unwrap();
+        let file = crate::pvs::PvsReader::open(&path).unwrap();
+        let mut by_block = PartBuilder::new(blank(total, 0..total, objects, 0, 1)).unwrap();
+        assert!(by_block.numbering().is(file.input_of_rank()));
+        let mut reversed = file.input_of_rank().to_vec();
+        reversed.reverse();
+        assert!(!by_block.numbering().is(&reversed));
+        // The first block from the file's bytes, the others coded here.
+        let block = BLOCK_CELLS as usize;
+        by_block.push_coded_block(block, file.coded_block(0));
+        assert_eq!(
+            file.block_set_lens(0).unwrap(),
+            sets[..block].iter().map(Vec::len).collect::<Vec<_>>()
+        );
+        for range in [block..2 * block, 2 * block..total as usize] {
+            let numbering = by_block.numbering().clone();
+            let bytes = numbering.code_block(sets[range.clone()].iter().map(Vec::as_slice));
+            by_block.push_coded_block(range.len(), &bytes);
+        }
+        let by_block = by_block.into_part();
+        assert_eq!(by_block.done(), total as usize);
+        assert!(by_block.blocks == by_cell.blocks && by_block.block_lens == by_cell.block_lens);
+        assert_eq!(by_block.sets(), sets);
     }
 
     #[test]

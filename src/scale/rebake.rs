@@ -15,13 +15,16 @@
 //! not (1) or (3) keeps the verdicts of the objects whose directions miss
 //! X's rectangles from all its samples, and is solved for the others only.
 
+use std::borrow::Cow;
 use std::collections::HashMap;
 use std::path::Path;
+
+use rayon::prelude::*;
 
 use crate::error::{Error, Result};
 use crate::model::Rect;
 use crate::prepare::Scene;
-use crate::pvs::PvsReader;
+use crate::pvs::{BLOCK_CELLS, PvsReader};
 use crate::visibility::{SolveStats, VisibilityEngine, WantedObjects};
 
 /// What an incremental bake did, for `bake --json`.
@@ -57,6 +60,9 @@ pub struct RebakeStats {
     pub objects_solved_in_part: usize,
     /// Seconds spent probing.
     pub probe_seconds: f64,
+    /// Blocks of the file whose bytes were copied from the previous file
+    /// (every cell copied to the same place, the objects numbered alike).
+    pub blocks_copied: usize,
 }
 
 /// Refuse a previous file baked with other settings or by another version.
@@ -409,7 +415,7 @@ pub fn rebake_all(
         cells: sources,
         new_of_old,
         solve,
-        stats,
+        mut stats,
     } = match rebake(scene, engine, old, progress)? {
         Rebake::Sources(sources) => sources,
         Rebake::Full(why) => return Ok((None, RebakeStats::full(cells, why))),
@@ -421,14 +427,57 @@ pub fn rebake_all(
         0..cells,
     ))?;
     let mut tally = crate::bake::SetTally::default();
-    let mut reader = OldSets::new(old, &new_of_old);
-    for source in sources {
-        let set = match source {
-            CellSource::Copied(oc) => reader.set(oc)?,
-            CellSource::Solved(set) => set,
-        };
-        part.push(&set);
-        tally.add(&set);
+    // A block of OLD.pvs whose cells are all copied to the same places is
+    // the block the new file would code when both files number the objects
+    // alike: its bytes are copied and only its sets' sizes decoded. The
+    // other blocks are coded a few at a time, in parallel (a block's bytes
+    // depend only on its cells' sets), and added in order.
+    let block = BLOCK_CELLS as usize;
+    let same_blocks = old.block_cells() == block
+        && old.cell_count() == cells
+        && new_of_old.len() == scene.city.buildings.len()
+        && new_of_old
+            .iter()
+            .enumerate()
+            .all(|(i, &n)| n == Some(i as u32))
+        && part.numbering().is(old.input_of_rank());
+    let numbering = part.numbering().clone();
+    let blocks: Vec<std::ops::Range<usize>> = (0..cells)
+        .step_by(block)
+        .map(|c| c..(c + block).min(cells))
+        .collect();
+    let code = |range: &std::ops::Range<usize>| -> Result<(Cow<'_, [u8]>, Vec<usize>)> {
+        let in_place = sources[range.clone()]
+            .iter()
+            .zip(range.clone())
+            .all(|(s, c)| matches!(s, CellSource::Copied(oc) if *oc == c));
+        if same_blocks && in_place {
+            let b = range.start / block;
+            return Ok((Cow::Borrowed(old.coded_block(b)), old.block_set_lens(b)?));
+        }
+        let mut reader = OldSets::new(old, &new_of_old);
+        let sets = sources[range.clone()]
+            .iter()
+            .map(|source| match source {
+                CellSource::Copied(oc) => Ok(Cow::Owned(reader.set(*oc)?)),
+                CellSource::Solved(set) => Ok(Cow::Borrowed(set.as_slice())),
+            })
+            .collect::<Result<Vec<Cow<'_, [u32]>>>>()?;
+        let lens = sets.iter().map(|s| s.len()).collect();
+        Ok((
+            Cow::Owned(numbering.code_block(sets.iter().map(|s| &s[..]))),
+            lens,
+        ))
+    };
+    for group in blocks.chunks(2 * rayon::current_num_threads()) {
+        let coded = group.par_iter().map(code).collect::<Result<Vec<_>>>()?;
+        for (range, (bytes, lens)) in group.iter().zip(coded) {
+            stats.blocks_copied += usize::from(matches!(bytes, Cow::Borrowed(_)));
+            for len in lens {
+                tally.add_len(len);
+            }
+            part.push_coded_block(range.len(), &bytes);
+        }
     }
     let solve = SolveStats {
         samples: engine.sample_count(0..cells),

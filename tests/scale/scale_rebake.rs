@@ -132,6 +132,28 @@ fn twenty_single_building_edits_give_the_full_bakes_bytes() {
 }
 
 #[test]
+fn a_rebake_of_an_unchanged_city_copies_every_block_and_writes_the_same_bytes() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    generate(d, "base.geojson", "100", "11");
+    let s = bake(d, "base.geojson", "base.pvs", None);
+    let again = bake(d, "base.geojson", "again.pvs", Some("base.pvs"));
+    assert_eq!(
+        std::fs::read(d.join("base.pvs")).unwrap(),
+        std::fs::read(d.join("again.pvs")).unwrap()
+    );
+    let cells = s["cells"].as_u64().unwrap();
+    assert!(cells > 512, "the city has {cells} cells, one block");
+    assert_eq!(again["cells_copied"].as_u64(), Some(cells));
+    assert_eq!(
+        again["rebake"]["blocks_copied"].as_u64(),
+        Some(cells.div_ceil(512))
+    );
+    assert_eq!(again["mean_visible"], s["mean_visible"]);
+    assert_eq!(again["max_visible"], s["max_visible"]);
+}
+
+#[test]
 fn an_edit_that_moves_the_frame_bakes_in_full_with_the_reason() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
