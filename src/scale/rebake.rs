@@ -210,14 +210,21 @@ pub fn rebake(
             .and_modify(|e| *e = None)
             .or_insert(Some(i));
     }
-    // One pass over the old file (each block decoded once): per old cell,
+    // One pass over the old file (each block decoded once, blocks in
+    // parallel): per old cell,
     // whether it holds a member of X_old. Its set is read again only for
     // the cells solved again (below) or when it is written (copied).
-    let mut saw_change: Vec<bool> = Vec::with_capacity(old.cell_count());
-    old.for_each_visible(|_, set| {
-        saw_change.push(set.iter().any(|&o| changed_old[o as usize]));
-        Ok(())
-    })?;
+    let saw_change: Vec<bool> = (0..old.cell_count().div_ceil(old.block_cells()))
+        .into_par_iter()
+        .map(|b| {
+            let sets = old.block_sets(b)?;
+            Ok(sets
+                .iter()
+                .map(|set| set.iter().any(|&o| changed_old[o as usize]))
+                .collect::<Vec<bool>>())
+        })
+        .collect::<Result<Vec<Vec<bool>>>>()?
+        .concat();
     // The near field of every sample of a cell lies in the cell's bounding
     // box grown by the near field and a pixel (the window is pixel-aligned).
     let reach = scene.settings.near_field + 2.0 * scene.settings.pixel;
@@ -258,14 +265,23 @@ pub fn rebake(
         }
     }
     // The old sets of the cells solved in part, mapped to the new
-    // numbering, read in the old file's order (each block decoded once).
+    // numbering, read in the old file's order (each block decoded once,
+    // blocks in parallel).
     let new_of_old = new_numbering(old, &new_ids);
     in_part.sort_unstable_by_key(|&(_, oc)| oc);
-    let mut reader = OldSets::new(old, &new_of_old);
     let in_part = in_part
-        .into_iter()
-        .map(|(c, oc)| Ok((c, reader.set(oc)?)))
-        .collect::<Result<Vec<_>>>()?;
+        .chunk_by(|a, b| a.1 / old.block_cells() == b.1 / old.block_cells())
+        .collect::<Vec<_>>()
+        .into_par_iter()
+        .map(|cells| {
+            let mut reader = OldSets::new(old, &new_of_old);
+            cells
+                .iter()
+                .map(|&(c, oc)| Ok((c, reader.set(oc)?)))
+                .collect::<Result<Vec<_>>>()
+        })
+        .collect::<Result<Vec<_>>>()?
+        .concat();
     let part = plan_in_part(engine, in_part, &rects, &changed_new);
     stats.cells_solved_in_part = part.cells.len();
     stats.objects_solved_in_part = part

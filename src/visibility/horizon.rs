@@ -405,10 +405,17 @@ impl Horizon {
     /// to each other), other repeats are left.
     pub fn holders(&self, out: &mut Vec<u64>) {
         let mut last = None;
-        for (s, &tag) in self.slopes.iter().zip(&self.holders) {
-            if s.is_finite() && last != Some(tag) {
-                out.push(tag);
-                last = Some(tag);
+        // Only the groups raised since the last clear hold a slope.
+        let mut touched = self.touched;
+        while touched != 0 {
+            let g = touched.trailing_zeros() as usize;
+            touched &= touched - 1;
+            let bins = g * GROUP..(g + 1) * GROUP;
+            for (s, &tag) in self.slopes[bins.clone()].iter().zip(&self.holders[bins]) {
+                if s.is_finite() && last != Some(tag) {
+                    out.push(tag);
+                    last = Some(tag);
+                }
             }
         }
     }

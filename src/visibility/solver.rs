@@ -935,12 +935,17 @@ impl<'a> Solver<'a> {
                         return;
                     }
                     let reach = index.bucket_chain_rect(bucket, None);
-                    if reach.is_empty() || horizon.hides_rect(v, eye, reach, height) {
+                    if reach.is_empty() {
                         return;
                     }
+                    // The cheaper test first: the bucket's chains can raise
+                    // no bin the members' tests read.
                     if let Some(bins) = rect_bins(v, reach)
                         && !targets.iter().any(|&t| bins_overlap(bins, t))
                     {
+                        return;
+                    }
+                    if horizon.hides_rect(v, eye, reach, height) {
                         return;
                     }
                     let stride = bucket_stride(vc, &index.bucket_rect(bucket));
