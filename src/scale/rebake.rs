@@ -281,7 +281,9 @@ pub fn rebake(
                 .collect::<Result<Vec<_>>>()
         })
         .collect::<Result<Vec<_>>>()?
-        .concat();
+        .into_iter()
+        .flatten()
+        .collect();
     let part = plan_in_part(engine, in_part, &rects, &changed_new);
     stats.cells_solved_in_part = part.cells.len();
     stats.objects_solved_in_part = part
