@@ -937,10 +937,19 @@ impl ChangeDirections {
         if !self.union.meets(bins.0, bins.1) {
             return false;
         }
-        let (d, _) = object.distance_from(self.p);
-        self.dirs
-            .iter()
-            .any(|&(a, b, near)| d > near && bins_overlap(bins, (a, b)))
+        let beyond = |d: f64| {
+            self.dirs
+                .iter()
+                .any(|&(a, b, near)| d > near && bins_overlap(bins, (a, b)))
+        };
+        // The rectangle's distance is no greater than the distance the test
+        // takes (the hull's, or the rectangle's), so beyond a rectangle at
+        // it, the object is beyond it at that one too; the hull's distance
+        // is found only when this does not settle it. (Should rounding put
+        // the hull's distance a hair below the rectangle's, the object is
+        // tested at one more sample, which gives it the full bake's verdict
+        // there: the sets cannot change.)
+        beyond(rect_distance(self.p, &object.rect)) || beyond(object.distance_from(self.p).0)
     }
 
     /// Whether a pyramid node with this rectangle may hold an object that
