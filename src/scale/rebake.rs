@@ -465,11 +465,13 @@ pub fn rebake_all(
         .map(|c| c..(c + block).min(cells))
         .collect();
     let code = |range: &std::ops::Range<usize>| -> Result<(Cow<'_, [u8]>, Vec<usize>)> {
-        let in_place = sources[range.clone()]
-            .iter()
-            .zip(range.clone())
-            .all(|(s, c)| matches!(s, CellSource::Copied(oc) if *oc == c));
-        if same_blocks && in_place {
+        let in_place = || {
+            sources[range.clone()]
+                .iter()
+                .zip(range.clone())
+                .all(|(s, c)| matches!(s, CellSource::Copied(oc) if *oc == c))
+        };
+        if same_blocks && in_place() {
             let b = range.start / block;
             return Ok((Cow::Borrowed(old.coded_block(b)), old.block_set_lens(b)?));
         }

@@ -201,6 +201,18 @@ pub(crate) fn ceil_i64(x: f64) -> i64 {
     t + ((t as f64) < x) as i64
 }
 
+/// The groups whose bits are set in `mask` (one bit per group of GROUP
+/// bins), in ascending order.
+fn groups_in(mut mask: u64) -> impl Iterator<Item = usize> {
+    std::iter::from_fn(move || {
+        (mask != 0).then(|| {
+            let g = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            g
+        })
+    })
+}
+
 fn wrap(bin: i64) -> usize {
     // BINS is a power of two: the mask is the Euclidean remainder.
     (bin & (BINS as i64 - 1)) as usize
@@ -209,9 +221,7 @@ fn wrap(bin: i64) -> usize {
 impl Horizon {
     /// Back to "nothing is known", every bin of interest.
     pub fn clear(&mut self) {
-        while self.touched != 0 {
-            let g = self.touched.trailing_zeros() as usize;
-            self.touched &= self.touched - 1;
+        for g in groups_in(std::mem::take(&mut self.touched)) {
             self.slopes[g * GROUP..(g + 1) * GROUP].fill(f64::NEG_INFINITY);
             self.group_min[g] = f64::NEG_INFINITY;
         }
@@ -388,9 +398,7 @@ impl Horizon {
                 }
             }
         }
-        while dirty != 0 {
-            let g = dirty.trailing_zeros() as usize;
-            dirty &= dirty - 1;
+        for g in groups_in(dirty) {
             let bins = &self.slopes[g * GROUP..(g + 1) * GROUP];
             // No slope is NaN, so a plain comparison is the minimum.
             self.group_min[g] = bins
@@ -406,10 +414,7 @@ impl Horizon {
     pub fn holders(&self, out: &mut Vec<u64>) {
         let mut last = None;
         // Only the groups raised since the last clear hold a slope.
-        let mut touched = self.touched;
-        while touched != 0 {
-            let g = touched.trailing_zeros() as usize;
-            touched &= touched - 1;
+        for g in groups_in(self.touched) {
             let bins = g * GROUP..(g + 1) * GROUP;
             for (s, &tag) in self.slopes[bins.clone()].iter().zip(&self.holders[bins]) {
                 if s.is_finite() && last != Some(tag) {

@@ -717,6 +717,14 @@ impl ObjectRaster {
     pub fn distance_from(&self, v: DVec2) -> (f64, bool) {
         super::horizon::object_distance(v, &self.hull, &self.rect)
     }
+
+    /// The object's horizon test seen from `(v, eye)`, at the distance
+    /// [`ObjectRaster::distance_from`] gave (`at`): by its hull, up to its
+    /// height. The bake's test of an object outside the window, and the
+    /// incremental bake's probe of it.
+    pub fn view_from(&self, v: DVec2, eye: f64, at: (f64, bool)) -> super::horizon::RectView {
+        super::horizon::RectView::of_object(v, eye, (&self.hull, &self.rect), self.height, at)
+    }
 }
 
 fn build_pyramid(objects: &[ObjectRaster]) -> (Vec<PyramidNode>, Option<u32>) {

@@ -639,13 +639,7 @@ impl<'a> Solver<'a> {
     ) -> bool {
         let index = self.index;
         let object = &index.objects[o as usize];
-        let view = RectView::of_object(
-            v,
-            self.eye,
-            (&object.hull, &object.rect),
-            object.height,
-            (r, outside_hull),
-        );
+        let view = object.view_from(v, self.eye, (r, outside_hull));
         if !contains(window, &object.rect) {
             return self.hidden_by_chains_nearer(v, r, &view);
         }
@@ -860,15 +854,8 @@ impl<'a> Solver<'a> {
                 return false;
             };
             targets.push(bins);
-            let (r, outside_hull) = object.distance_from(v);
-            let view = RectView::of_object(
-                v,
-                eye,
-                (&object.hull, &object.rect),
-                object.height,
-                (r, outside_hull),
-            );
-            members.push((r, k, view.strictly()));
+            let at = object.distance_from(v);
+            members.push((at.0, k, object.view_from(v, eye, at).strictly()));
             union = union.union(&object.rect);
             highest = highest.max(object.height);
         }
