@@ -203,8 +203,21 @@ struct Outline {
 pub(super) struct Grid {
     size: f64,
     active: HashSet<(i64, i64), KeyHasher>,
+    /// The blocks of 2^COARSE_SHIFT x 2^COARSE_SHIFT buckets holding an
+    /// active bucket: most segments lie far from every short edge, and one
+    /// or two lookups here tell so.
+    coarse: HashSet<(i64, i64), KeyHasher>,
     buckets: HashMap<(i64, i64), Vec<usize>, KeyHasher>,
+    /// The keys of the segment being filed (kept to save an allocation).
+    scratch: Vec<(i64, i64)>,
 }
+
+/// Buckets per side of a [`Grid`]'s coarse block, as a power of two.
+const COARSE_SHIFT: u32 = 4;
+
+/// A segment whose bucket range spans more coarse blocks than this is
+/// filed step by step without the coarse test first.
+const COARSE_TEST_MAX: i64 = 16;
 
 /// The grid's key hasher: foldhash, seeded afresh in each run as the
 /// standard one is (so keys cannot be picked ahead to collide), but several
@@ -218,7 +231,9 @@ impl Grid {
         let mut grid = Grid {
             size,
             active: HashSet::default(),
+            coarse: HashSet::default(),
             buckets: HashMap::default(),
+            scratch: Vec::new(),
         };
         for p in around {
             let (kx, ky) = grid.key(p);
@@ -228,6 +243,11 @@ impl Grid {
                 }
             }
         }
+        grid.coarse = grid
+            .active
+            .iter()
+            .map(|&(kx, ky)| (kx >> COARSE_SHIFT, ky >> COARSE_SHIFT))
+            .collect();
         grid
     }
 
@@ -243,13 +263,20 @@ impl Grid {
     /// neighbours. A segment within 0.75 * size of a point p is then filed
     /// under p's bucket.
     pub(super) fn insert(&mut self, i: usize, a: DVec2, b: DVec2) {
-        if self.active.is_empty() {
+        if self.active.is_empty() || !self.may_file(a, b) {
             return;
         }
         let steps = piece_count(a, b, 0.5 * self.size);
-        let mut keys: Vec<(i64, i64)> = Vec::new();
+        let mut keys = std::mem::take(&mut self.scratch);
+        keys.clear();
+        let mut last = None;
         for p in cut_points(a, b, steps) {
             let (kx, ky) = self.key(p);
+            // Steps are half a bucket apart: a bucket repeated from the
+            // step before adds nothing.
+            if last.replace((kx, ky)) == Some((kx, ky)) {
+                continue;
+            }
             for dx in -1..=1 {
                 for dy in -1..=1 {
                     if self.active.contains(&(kx + dx, ky + dy)) {
@@ -260,9 +287,31 @@ impl Grid {
         }
         keys.sort_unstable();
         keys.dedup();
-        for k in keys {
+        for &k in &keys {
             self.buckets.entry(k).or_default().push(i);
         }
+        self.scratch = keys;
+    }
+
+    /// Whether [`Grid::insert`] may file the segment a -> b anywhere: false
+    /// only when no coarse block around its buckets holds an active one.
+    /// Its steps lie between its ends, so their buckets lie within the
+    /// ends' bucket range grown by one (for rounding) and the buckets it is
+    /// filed under within that range grown by one more.
+    fn may_file(&self, a: DVec2, b: DVec2) -> bool {
+        let (ka, kb) = (self.key(a), self.key(b));
+        let lo = |u: i64, v: i64| u.min(v).saturating_sub(2) >> COARSE_SHIFT;
+        let hi = |u: i64, v: i64| u.max(v).saturating_add(2) >> COARSE_SHIFT;
+        let (x0, x1, y0, y1) = (
+            lo(ka.0, kb.0),
+            hi(ka.0, kb.0),
+            lo(ka.1, kb.1),
+            hi(ka.1, kb.1),
+        );
+        if (x1 - x0 + 1).saturating_mul(y1 - y0 + 1) > COARSE_TEST_MAX {
+            return true;
+        }
+        (x0..=x1).any(|x| (y0..=y1).any(|y| self.coarse.contains(&(x, y))))
     }
 
     /// Segments filed near `p` (some may be stale), or `None` when p is
