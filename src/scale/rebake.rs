@@ -233,7 +233,9 @@ pub fn rebake(
     // Cells to probe, and cells to solve again for the objects in X's
     // directions only, with their old cells.
     let mut candidates: Vec<(usize, usize)> = Vec::new();
-    let mut in_part: Vec<(usize, usize)> = Vec::new();
+    // With each, whether it passed 1 (every old member of X was hidden
+    // from its every sample), which rules out new visible objects.
+    let mut in_part: Vec<(usize, usize, bool)> = Vec::new();
     for (c, t) in cells.iter().enumerate() {
         let Some(&Some(oc)) = old_cell.get(&super::diff::cell_key(t)) else {
             stats.cells_new += 1;
@@ -246,7 +248,7 @@ pub fn rebake(
         }
         if saw_change[oc] {
             stats.cells_saw_change += 1;
-            in_part.push((c, oc));
+            in_part.push((c, oc, false));
         } else {
             candidates.push((c, oc));
         }
@@ -261,14 +263,14 @@ pub fn rebake(
             sources[c] = Some(CellSource::Copied(oc));
         } else {
             stats.cells_probe_failed += 1;
-            in_part.push((c, oc));
+            in_part.push((c, oc, true));
         }
     }
     // The old sets of the cells solved in part, mapped to the new
     // numbering, read in the old file's order (each block decoded once,
     // blocks in parallel).
     let new_of_old = new_numbering(old, &new_ids);
-    in_part.sort_unstable_by_key(|&(_, oc)| oc);
+    in_part.sort_unstable_by_key(|&(_, oc, _)| oc);
     let in_part = in_part
         .chunk_by(|a, b| a.1 / old.block_cells() == b.1 / old.block_cells())
         .collect::<Vec<_>>()
@@ -277,7 +279,13 @@ pub fn rebake(
             let mut reader = OldSets::new(old, &new_of_old);
             cells
                 .iter()
-                .map(|&(c, oc)| Ok((c, reader.set(oc)?)))
+                .map(|&(c, oc, hidden_before)| {
+                    Ok(PartCell {
+                        cell: c,
+                        old_set: reader.set(oc)?,
+                        hidden_before,
+                    })
+                })
                 .collect::<Result<Vec<_>>>()
         })
         .collect::<Result<Vec<_>>>()?
@@ -363,6 +371,15 @@ impl<'a> OldSets<'a> {
     }
 }
 
+/// A cell to solve in part, with its old set mapped to the new numbering.
+struct PartCell {
+    cell: usize,
+    old_set: Vec<u32>,
+    /// It passed 1 and 2 (only 3 failed): every old member of X was hidden
+    /// from its every sample.
+    hidden_before: bool,
+}
+
 /// The cells solved in part, ascending, with what each is solved for and
 /// the members of its old set it keeps.
 struct PartPlan {
@@ -371,47 +388,50 @@ struct PartPlan {
     kept: Vec<Vec<u32>>,
 }
 
-/// Plan the cells of `in_part` (with their old sets mapped to the new
-/// numbering; outside X's near field): each keeps the verdicts of every
-/// object that lies beyond no rectangle of X (`rects`) in its directions
-/// from any of its samples, and is solved again for the others. A cell
-/// with a sample inside a rectangle is left out (solved in full).
+/// Plan the cells of `in_part` (outside X's near field): each keeps the
+/// verdicts of every object that lies beyond no rectangle of X (`rects`)
+/// in its directions from any of its samples, and is solved again for the
+/// others. A cell with a sample inside a rectangle is left out (solved in
+/// full).
 fn plan_in_part(
     engine: &VisibilityEngine,
-    mut in_part: Vec<(usize, Vec<u32>)>,
+    mut in_part: Vec<PartCell>,
     rects: &[Rect],
     changed_new: &[u32],
 ) -> PartPlan {
-    in_part.sort_unstable_by_key(|(c, _)| *c);
-    let list: Vec<usize> = in_part.iter().map(|(c, _)| *c).collect();
+    in_part.sort_unstable_by_key(|p| p.cell);
+    let list: Vec<usize> = in_part.iter().map(|p| p.cell).collect();
     let wanted = engine.objects_in_directions(&list, rects, changed_new);
     let mut plan = PartPlan {
         cells: Vec::new(),
         wanted: Vec::new(),
         kept: Vec::new(),
     };
-    for ((c, old_set), wanted) in in_part.into_iter().zip(wanted) {
+    for (part, wanted) in in_part.into_iter().zip(wanted) {
         // A sample inside a rectangle of X is within its near field, so this
         // does not happen; should it, the cell is solved in full.
         let Some(wanted) = wanted else { continue };
         // An object the old cell did not see was hidden at every sample, so
         // it can only be seen now from a sample in whose changed directions
-        // it lies; one it saw, or a changed object, is tested at every one.
+        // it lies, and not at all when every old member of X was hidden
+        // there too (the new horizon is then nowhere lower than the old:
+        // docs/DESIGN.md, "Cells that failed only the probe"); one it saw,
+        // or a changed object, is tested at every sample.
         let mut w = WantedObjects::default();
         for o in wanted {
-            if old_set.binary_search(&o).is_ok() || changed_new.binary_search(&o).is_ok() {
+            if part.old_set.binary_search(&o).is_ok() || changed_new.binary_search(&o).is_ok() {
                 w.everywhere.push(o);
-            } else {
+            } else if !part.hidden_before {
                 w.where_changed.push(o);
             }
         }
         plan.kept.push(
-            old_set
+            part.old_set
                 .into_iter()
                 .filter(|o| w.everywhere.binary_search(o).is_err())
                 .collect(),
         );
-        plan.cells.push(c);
+        plan.cells.push(part.cell);
         plan.wanted.push(w);
     }
     plan
