@@ -1,6 +1,7 @@
 //! The object fingerprint list of the objects section (docs/FORMAT.md,
 //! "Objects", item 3): per object, a 64-bit fingerprint of its prepared
-//! data, one of its occluder block, and its footprint's bounding rectangle.
+//! data, one of its occluder neighbourhood in its block, and its
+//! footprint's bounding rectangle.
 //! An incremental bake (`citypvs bake --previous`) finds with it, by id and
 //! without the old city, which objects changed (src/scale/rebake.rs). This
 //! module owns the list's type, how it is computed from a scene, and its
@@ -11,9 +12,9 @@ use glam::DVec2;
 use sha2::{Digest, Sha256};
 
 use crate::error::{Error, Result};
-#[cfg(feature = "bake")]
-use crate::model::MultiPolygon;
 use crate::model::Rect;
+#[cfg(feature = "bake")]
+use crate::model::{MultiPolygon, Polygon};
 
 use super::mesh::{MAX_GRID_NUMBER, PER_METRE, unzigzag, zigzag};
 use super::rc::{Decoder, Encoder, NumberModel, PROB_INIT, Prob};
@@ -25,8 +26,9 @@ pub struct ObjectPrint {
     /// SHA-256 (first 8 bytes, little-endian) over the exact bits of the
     /// footprint, the height and the occluder flag.
     pub object: u64,
-    /// SHA-256 (first 8 bytes) over the exact bits of every shrunk occluder
-    /// level of the object's block, in order; 0 for an object in no block.
+    /// For a member of a block of several members, SHA-256 (first 8 bytes)
+    /// over its occluder neighbourhood (see [`object_prints`]); for a block
+    /// of one member, `object`; 0 for an object in no block.
     pub block: u64,
     /// The footprint's bounding rectangle (outer rings): min x, min y, max x,
     /// max y in local metres.
@@ -47,7 +49,7 @@ impl ObjectPrint {
 pub const PRINT_BYTES: usize = 48;
 
 #[cfg(feature = "bake")]
-fn hash_polygons(h: &mut Sha256, shape: &MultiPolygon) {
+fn hash_polygons(h: &mut Sha256, shape: &[Polygon]) {
     h.update((shape.len() as u64).to_le_bytes());
     for polygon in shape {
         h.update((polygon.holes.len() as u64 + 1).to_le_bytes());
@@ -67,20 +69,52 @@ fn finish(h: Sha256) -> u64 {
     u64::from_le_bytes(d[..8].try_into().expect("8 bytes"))
 }
 
-/// Every object's entry for a prepared scene, in object order. An
-/// occluder naming no block of the scene (a scene put together by hand)
-/// adds to no block's fingerprint.
+/// Opens every neighbourhood fingerprint, so that none can equal a value
+/// hashed another way (an object's own fingerprint, or the whole-block
+/// fingerprint files of earlier versions held).
+#[cfg(feature = "bake")]
+const NEIGHBOURHOOD_DOMAIN: &[u8] = b"citypvs occluder neighbourhood 2";
+
+/// The bounding rectangle of a footprint's outer rings.
+#[cfg(feature = "bake")]
+fn outer_rect(footprint: &MultiPolygon) -> Rect {
+    let mut rect = Rect::EMPTY;
+    for p in footprint {
+        for v in &p.exterior {
+            rect.include(*v);
+        }
+    }
+    rect
+}
+
+/// Every object's entry for a prepared scene, in object order.
+///
+/// The `block` entry of a member of a block of several members is its
+/// occluder neighbourhood: the fingerprints, with their heights, of the
+/// shrunk polygons of its block that it may hold part of (those of a level
+/// no higher than the member whose rectangle meets the member's), sorted,
+/// so that neither the numbering of levels nor the order of polygons
+/// counts. Every point of a shrunk polygon of height H lies in the
+/// footprint of a member of height at least H, whose rectangle then meets
+/// the polygon's; so a polygon (and so a chain) present in only one of two
+/// cities changes the entry of every member under it (docs/DESIGN.md,
+/// "Incremental bakes"). An occluder naming no block of the scene (a scene
+/// put together by hand) adds to no entry.
 #[cfg(feature = "bake")]
 pub fn object_prints(scene: &crate::prepare::Scene) -> Vec<ObjectPrint> {
     let buildings = &scene.city.buildings;
-    let mut block_hash = vec![Sha256::new(); scene.blocks.len()];
+    // Per block, its shrunk polygons: height, fingerprint, rectangle.
+    let mut polygons: Vec<Vec<(f64, u64, Rect)>> = vec![Vec::new(); scene.blocks.len()];
     for occ in &scene.occluders {
-        let Some(h) = block_hash.get_mut(occ.block) else {
+        let Some(list) = polygons.get_mut(occ.block) else {
             continue;
         };
-        h.update((occ.level as u64).to_le_bytes());
-        h.update(occ.height.to_bits().to_le_bytes());
-        hash_polygons(h, &occ.shape);
+        for polygon in &occ.shape {
+            let mut h = Sha256::new();
+            h.update(occ.height.to_bits().to_le_bytes());
+            hash_polygons(&mut h, std::slice::from_ref(polygon));
+            list.push((occ.height, finish(h), Rect::of_points(&polygon.exterior)));
+        }
     }
     let object_of = |b: &crate::model::Building| {
         let mut h = Sha256::new();
@@ -89,36 +123,45 @@ pub fn object_prints(scene: &crate::prepare::Scene) -> Vec<ObjectPrint> {
         hash_polygons(&mut h, &b.footprint);
         finish(h)
     };
+    let rects: Vec<Rect> = buildings.iter().map(|b| outer_rect(&b.footprint)).collect();
     let mut of_object = vec![0u64; buildings.len()];
-    for (block, h) in scene.blocks.iter().zip(block_hash) {
-        let mut h = h;
-        h.update((block.members.len() as u64).to_le_bytes());
+    for (block, polygons) in scene.blocks.iter().zip(&polygons) {
         // A block of one member: its levels are a function of that
         // member's own data, so its fingerprint is the member's.
-        let value = match block.members.as_slice() {
-            &[m] if m < buildings.len() => object_of(&buildings[m]),
-            _ => finish(h),
+        if let &[m] = block.members.as_slice() {
+            if let Some(b) = buildings.get(m) {
+                of_object[m] = object_of(b).max(1);
+            }
+            continue;
         }
-        .max(1);
         for &m in &block.members {
-            of_object[m] = value;
+            let (Some(b), Some(rect)) = (buildings.get(m), rects.get(m)) else {
+                continue;
+            };
+            let mut under: Vec<(u64, u64)> = polygons
+                .iter()
+                .filter(|(height, _, r)| *height <= b.height && r.intersects(rect))
+                .map(|&(height, print, _)| (height.to_bits(), print))
+                .collect();
+            under.sort_unstable();
+            let mut h = Sha256::new();
+            h.update(NEIGHBOURHOOD_DOMAIN);
+            h.update((under.len() as u64).to_le_bytes());
+            for (height, print) in under {
+                h.update(height.to_le_bytes());
+                h.update(print.to_le_bytes());
+            }
+            of_object[m] = finish(h).max(1);
         }
     }
     buildings
         .iter()
         .zip(of_object)
-        .map(|(b, block)| {
-            let mut rect = Rect::EMPTY;
-            for p in &b.footprint {
-                for v in &p.exterior {
-                    rect.include(*v);
-                }
-            }
-            ObjectPrint {
-                object: object_of(b),
-                block,
-                rect: [rect.min.x, rect.min.y, rect.max.x, rect.max.y],
-            }
+        .zip(rects)
+        .map(|((b, block), rect)| ObjectPrint {
+            object: object_of(b),
+            block,
+            rect: [rect.min.x, rect.min.y, rect.max.x, rect.max.y],
         })
         .collect()
 }

@@ -6,8 +6,9 @@
 //!
 //! Objects are matched by id, cells by their exact corner coordinates. The
 //! changed objects X are found with the fingerprint list of OLD.pvs
-//! (`crate::pvs::prints`): an object whose own fingerprint or whose block's
-//! fingerprint differs, or that is only in one of the two cities. A new cell
+//! (`crate::pvs::prints`): an object whose own fingerprint or whose
+//! occluder neighbourhood's fingerprint (the shrunk polygons of its block
+//! that may lie over it) differs, or that is only in one of the two cities. A new cell
 //! keeps the old cell's set when (1) no old version of X is in it, (2) no
 //! rectangle of X (old or new) comes within the near field of the cell, and
 //! (3) every new version of X is hidden from every sample of the cell by the
@@ -186,7 +187,7 @@ pub fn rebake(
         }
         rects.push(n.rect());
         changed_new.push(j as u32);
-        // A member whose own data are unchanged (only its block's occluders
+        // A member whose own data are unchanged (only occluders over it
         // changed) is hidden wherever its old version was: probed only when
         // its own data changed or it is new (docs/DESIGN.md).
         if old_print.is_none_or(|a| a.object != n.object) {

@@ -1,7 +1,8 @@
 //! Incremental bakes (`bake --previous`): after single-building edits of a
 //! generated city (move, delete, add, raise, lower) the file is byte for
 //! byte the one a full bake of the edited city writes, while cells are
-//! really copied; a previous file of other settings, an unreadable one or a
+//! really copied, and an edit of one house of a row changes no other member
+//! whose occluders it leaves alone; a previous file of other settings, an unreadable one or a
 //! version 1 file is refused with one line.
 
 use std::path::Path;
@@ -134,6 +135,81 @@ fn twenty_single_building_edits_give_the_full_bakes_bytes() {
         copied * 10 > cells,
         "only {copied} of {cells} cells were copied over the 20 edits"
     );
+}
+
+/// A metric GeoJSON city: a row of seven touching 10 m squares along x
+/// (ids `row0` to `row6`) with the given heights, and eight free-standing
+/// buildings around it.
+fn row_city(heights: [f64; 7]) -> Vec<u8> {
+    let square = |x: f64, y: f64, w: f64| {
+        serde_json::json!({"type": "Polygon", "coordinates": [[
+            [x, y], [x + w, y], [x + w, y + w], [x, y + w], [x, y]
+        ]]})
+    };
+    let mut features: Vec<Value> = heights
+        .iter()
+        .enumerate()
+        .map(|(i, &h)| {
+            serde_json::json!({"type": "Feature", "id": format!("row{i}"),
+                "properties": {"height": h}, "geometry": square(10.0 * i as f64, 0.0, 10.0)})
+        })
+        .collect();
+    for k in 0..8 {
+        let (x, y) = (
+            -40.0 + 20.0 * k as f64,
+            if k % 2 == 0 { 40.0 } else { -40.0 },
+        );
+        features.push(
+            serde_json::json!({"type": "Feature", "id": format!("house{k}"),
+            "properties": {"height": 8.0 + k as f64}, "geometry": square(x, y, 8.0)}),
+        );
+    }
+    serde_json::to_vec(&serde_json::json!({"type": "FeatureCollection", "features": features}))
+        .unwrap()
+}
+
+#[test]
+fn raising_one_house_of_a_row_changes_only_that_house() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let bake = |city: &str, out: &str, previous: Option<&str>| -> Value {
+        let mut args = vec!["bake", city, "-o", out, "--json", "-q", "--metric"];
+        args.extend(SETTINGS);
+        if let Some(p) = previous {
+            args.extend(["--previous", p]);
+        }
+        serde_json::from_slice(&run(d, &args).stdout).unwrap()
+    };
+    std::fs::write(d.join("base.geojson"), row_city([10.0; 7])).unwrap();
+    bake("base.geojson", "base.pvs", None);
+    // Raised, the middle house adds a level of its own: the row's common
+    // level is the same polygon, and no other member lies under the new
+    // one (all are lower), so only the raised house is a changed object.
+    // Lowered, it splits the row's level in two: every member changes.
+    for (height, changed) in [(16.0, 1), (6.0, 7)] {
+        let mut heights = [10.0; 7];
+        heights[3] = height;
+        std::fs::write(d.join("edit.geojson"), row_city(heights)).unwrap();
+        bake("edit.geojson", "full.pvs", None);
+        let s = bake("edit.geojson", "inc.pvs", Some("base.pvs"));
+        assert!(
+            std::fs::read(d.join("full.pvs")).unwrap() == std::fs::read(d.join("inc.pvs")).unwrap(),
+            "middle house at {height} m: the incremental bake differs from the full bake ({})",
+            s["rebake"]
+        );
+        assert_eq!(
+            s["rebake"]["objects_changed_new"].as_u64(),
+            Some(changed),
+            "{}",
+            s["rebake"]
+        );
+        assert_eq!(
+            s["rebake"]["objects_changed_old"].as_u64(),
+            Some(changed),
+            "{}",
+            s["rebake"]
+        );
+    }
 }
 
 #[test]
