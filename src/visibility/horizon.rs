@@ -299,6 +299,13 @@ impl Horizon {
         {
             return;
         }
+        // With bins of interest, only those are ever read: the chain's
+        // per-bin work is cut to its stretch of them (when that is one
+        // stretch), which gives those bins the same slopes.
+        let (first_full, last_full) = match self.interest {
+            Some(bins) if self.skip_hidden => clip_to_interest((first_full, last_full), bins),
+            _ => (first_full, last_full),
+        };
         // The steepest slope this chain could give; if every bin it would
         // raise is already at least that steep, it adds nothing.
         let nearest = points
@@ -909,6 +916,27 @@ impl BinMask {
     }
 }
 
+/// The bins of the unwrapped range `lo..=hi` (under a turn wide) that lie
+/// in some copy of `interest` shifted by whole turns, when they form one
+/// stretch; the whole range otherwise (an interest of a turn or more, or
+/// two stretches).
+fn clip_to_interest((lo, hi): (i64, i64), (a, b): (i64, i64)) -> (i64, i64) {
+    let n = BINS as i64;
+    if b - a + 1 >= n || hi - lo + 1 > n {
+        return (lo, hi);
+    }
+    // The copy starting at or before `lo` and the next one are the only
+    // copies that can meet the range: the one before ends before `lo`, and
+    // the one after next starts past `hi`.
+    let k = (lo - a).div_euclid(n) * n;
+    let pieces = [0, n].map(|j| (lo.max(a + k + j), hi.min(b + k + j)));
+    match pieces.map(|(x, y)| x <= y) {
+        [true, false] => pieces[0],
+        [false, true] => pieces[1],
+        _ => (lo, hi),
+    }
+}
+
 /// Whether two ranges of bins (`lo..=hi`, unwrapped: any integers) share a
 /// bin modulo a turn.
 pub fn bins_overlap(a: (i64, i64), b: (i64, i64)) -> bool {
@@ -1161,6 +1189,25 @@ mod tests {
     }
 
     proptest::proptest! {
+        /// A chain's range cut to the bins of interest keeps every bin of
+        /// the range that some copy of the interest holds, and adds none.
+        #[test]
+        fn a_range_cut_to_the_interest_keeps_every_bin_of_interest(
+            lo in -5000i64..5000, width in 0i64..2048,
+            a in -5000i64..5000, interest_width in 0i64..2100,
+        ) {
+            let n = BINS as i64;
+            let (hi, b) = (lo + width, a + interest_width);
+            let (x, y) = clip_to_interest((lo, hi), (a, b));
+            proptest::prop_assert!(lo <= x && y <= hi && x <= y);
+            for bin in lo..=hi {
+                let of_interest = (bin - a).rem_euclid(n) <= b - a;
+                proptest::prop_assert!(!of_interest || (x <= bin && bin <= y), "bin {bin}");
+            }
+        }
+    }
+
+    proptest::proptest! {
         /// The failing sectors are empty exactly when the rectangle is
         /// hidden, and hold the sector of every bin the test reads and
         /// finds too low, with or without bins of interest.
@@ -1216,7 +1263,8 @@ mod tests {
         /// of a chain's per-bin work the bins at either end of its arc that
         /// are already as steep as it could make them, gives the horizon
         /// that adding every chain in full gives: the same slopes, bit for
-        /// bit, held by the same chains.
+        /// bit, held by the same chains; with bins of interest, the same
+        /// slopes in those bins.
         #[test]
         fn skipping_what_cannot_rise_leaves_the_full_horizon(
             chains in proptest::collection::vec(
@@ -1227,6 +1275,7 @@ mod tests {
                 ),
                 1..40,
             ),
+            interest in (0i64..2048, 0i64..600),
         ) {
             let v = DVec2::new(0.5, -0.25);
             let mut skipping = Horizon::default();
@@ -1234,6 +1283,9 @@ mod tests {
                 skip_hidden: false,
                 ..Horizon::default()
             };
+            // With bins of interest, those bins as without.
+            let mut restricted = Horizon::default();
+            restricted.restrict_to_bins((interest.0, interest.0 + interest.1));
             for (tag, ((x, y), steps, height)) in chains.iter().enumerate() {
                 let mut p = DVec2::new(*x, *y);
                 let mut points = vec![p];
@@ -1243,11 +1295,16 @@ mod tests {
                 }
                 skipping.add_chain(v, 1.7, *height, tag as u64, &points);
                 full.add_chain(v, 1.7, *height, tag as u64, &points);
+                restricted.add_chain(v, 1.7, *height, tag as u64, &points);
             }
+            let (a, c) = restricted.interest.unwrap();
             for b in 0..BINS {
                 proptest::prop_assert_eq!(skipping.slopes[b].to_bits(), full.slopes[b].to_bits());
                 if skipping.slopes[b].is_finite() {
                     proptest::prop_assert_eq!(skipping.holders[b], full.holders[b]);
+                }
+                if (b as i64 - a).rem_euclid(BINS as i64) <= c - a {
+                    proptest::prop_assert_eq!(restricted.slopes[b].to_bits(), full.slopes[b].to_bits(), "bin {}", b);
                 }
             }
         }
