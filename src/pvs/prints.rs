@@ -14,7 +14,7 @@ use sha2::{Digest, Sha256};
 use crate::error::{Error, Result};
 use crate::model::Rect;
 #[cfg(feature = "bake")]
-use crate::model::{MultiPolygon, Polygon};
+use crate::model::Polygon;
 
 use super::mesh::{MAX_GRID_NUMBER, PER_METRE, unzigzag, zigzag};
 use super::rc::{Decoder, Encoder, NumberModel, PROB_INIT, Prob};
@@ -75,18 +75,6 @@ fn finish(h: Sha256) -> u64 {
 #[cfg(feature = "bake")]
 const NEIGHBOURHOOD_DOMAIN: &[u8] = b"citypvs occluder neighbourhood 2";
 
-/// The bounding rectangle of a footprint's outer rings.
-#[cfg(feature = "bake")]
-fn outer_rect(footprint: &MultiPolygon) -> Rect {
-    let mut rect = Rect::EMPTY;
-    for p in footprint {
-        for v in &p.exterior {
-            rect.include(*v);
-        }
-    }
-    rect
-}
-
 /// Every object's entry for a prepared scene, in object order.
 ///
 /// The `block` entry of a member of a block of several members is its
@@ -123,7 +111,10 @@ pub fn object_prints(scene: &crate::prepare::Scene) -> Vec<ObjectPrint> {
         hash_polygons(&mut h, &b.footprint);
         finish(h)
     };
-    let rects: Vec<Rect> = buildings.iter().map(|b| outer_rect(&b.footprint)).collect();
+    let rects: Vec<Rect> = buildings
+        .iter()
+        .map(|b| crate::model::multipolygon_bounds(&b.footprint))
+        .collect();
     let mut of_object = vec![0u64; buildings.len()];
     for (block, polygons) in scene.blocks.iter().zip(&polygons) {
         // A block of one member: its levels are a function of that
