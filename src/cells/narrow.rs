@@ -242,12 +242,15 @@ impl Grid {
                     grid.active.insert((kx + dx, ky + dy));
                 }
             }
+            // The coarse blocks of those 5 x 5 buckets (one to four),
+            // inserted as found: a set collected from the active buckets
+            // would reserve room for all of them.
+            for cx in (kx - 2) >> COARSE_SHIFT..=(kx + 2) >> COARSE_SHIFT {
+                for cy in (ky - 2) >> COARSE_SHIFT..=(ky + 2) >> COARSE_SHIFT {
+                    grid.coarse.insert((cx, cy));
+                }
+            }
         }
-        grid.coarse = grid
-            .active
-            .iter()
-            .map(|&(kx, ky)| (kx >> COARSE_SHIFT, ky >> COARSE_SHIFT))
-            .collect();
         grid
     }
 
