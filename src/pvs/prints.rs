@@ -12,9 +12,9 @@ use glam::DVec2;
 use sha2::{Digest, Sha256};
 
 use crate::error::{Error, Result};
-use crate::model::Rect;
 #[cfg(feature = "bake")]
 use crate::model::Polygon;
+use crate::model::Rect;
 
 use super::mesh::{MAX_GRID_NUMBER, PER_METRE, unzigzag, zigzag};
 use super::rc::{Decoder, Encoder, NumberModel, PROB_INIT, Prob};
