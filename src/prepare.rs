@@ -4,8 +4,9 @@
 use std::time::Instant;
 
 use crate::Result;
-use crate::cells::{CellParams, Cells, triangulate};
-use crate::geometry::{Block, Occluder, merge_blocks, shrink_blocks};
+use crate::cells::{CellParams, Cells, triangulate_with};
+use crate::geometry::memo::ShapeMemo;
+use crate::geometry::{Block, Occluder, merge_blocks, shrink_blocks_with};
 use crate::input::City;
 use crate::settings::Settings;
 
@@ -40,8 +41,13 @@ pub fn cell_params(settings: &Settings) -> CellParams {
 
 /// [`prepare`] a city that took `read_seconds` to read: the scene's
 /// timings start with that "read" stage.
-pub fn prepare_read(city: City, read_seconds: f64, settings: &Settings) -> Result<Scene> {
-    let mut scene = prepare(city, settings)?;
+pub fn prepare_read(
+    city: City,
+    read_seconds: f64,
+    settings: &Settings,
+    memo: &ShapeMemo,
+) -> Result<Scene> {
+    let mut scene = prepare_with(city, settings, memo)?;
     scene.timings.insert(
         0,
         StageTime {
@@ -54,6 +60,12 @@ pub fn prepare_read(city: City, read_seconds: f64, settings: &Settings) -> Resul
 
 /// Run merge, shrink and triangulation over a city.
 pub fn prepare(city: City, settings: &Settings) -> Result<Scene> {
+    prepare_with(city, settings, &ShapeMemo::off())
+}
+
+/// [`prepare`], taking from `memo` every shrunk level and opened tile it
+/// holds (the same bits as computing them).
+pub fn prepare_with(city: City, settings: &Settings, memo: &ShapeMemo) -> Result<Scene> {
     let mut timings = Vec::new();
     let t = Instant::now();
     let blocks = merge_blocks(&city.buildings);
@@ -62,13 +74,13 @@ pub fn prepare(city: City, settings: &Settings) -> Result<Scene> {
         seconds: t.elapsed().as_secs_f64(),
     });
     let t = Instant::now();
-    let occluders = shrink_blocks(&blocks, settings.eps);
+    let occluders = shrink_blocks_with(&blocks, settings.eps, memo);
     timings.push(StageTime {
         stage: "erode",
         seconds: t.elapsed().as_secs_f64(),
     });
     let t = Instant::now();
-    let cells = triangulate(&blocks, &cell_params(settings))?;
+    let cells = triangulate_with(&blocks, &cell_params(settings), memo)?;
     timings.push(StageTime {
         stage: "triangulate",
         seconds: t.elapsed().as_secs_f64(),
@@ -108,6 +120,9 @@ pub struct PrepareSummary {
     pub thinnest_cell_m: f64,
     pub thin_cells: usize,
     pub timings: Vec<StageTime>,
+    /// How `--geometry-cache` was used, when it was given.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub geometry_cache: Option<crate::scale::geometry_cache::CacheReport>,
 }
 
 /// Cells with a smaller altitude than this (metres) count as thin.
@@ -165,6 +180,7 @@ pub fn summary(scene: &Scene) -> PrepareSummary {
         thinnest_cell_m: if thinnest.is_finite() { thinnest } else { 0.0 },
         thin_cells: altitudes.iter().filter(|&&a| a < THIN_CELL).count(),
         timings: scene.timings.clone(),
+        geometry_cache: None,
     }
 }
 
@@ -213,6 +229,13 @@ impl PrepareSummary {
             100.0 * self.thin_cells as f64 / self.cells.max(1) as f64,
             THIN_CELL
         );
+        if let Some(c) = &self.geometry_cache {
+            let _ = writeln!(
+                s,
+                "geometry cache  {}: {} shapes taken, {} computed",
+                c.file, c.taken, c.computed
+            );
+        }
         for t in &self.timings {
             let _ = writeln!(s, "time {:<11} {:.3} s", t.stage, t.seconds);
         }

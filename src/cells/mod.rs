@@ -19,6 +19,7 @@ use glam::DVec2;
 
 use crate::Result;
 use crate::geometry::Block;
+use crate::geometry::memo::ShapeMemo;
 use crate::model::{MultiPolygon, Polygon, multipolygon_area};
 
 pub use crate::settings::{DEFAULT_MARGIN, DEFAULT_MAX_CELL_EDGE, DEFAULT_MIN_GAP};
@@ -98,7 +99,13 @@ pub struct Cells {
 /// (never panics) when there is no region to take, the parameters make no
 /// sense, or nothing of the region is free.
 pub fn triangulate(blocks: &[Block], params: &CellParams) -> Result<Cells> {
-    let mut cells = triangulate_exact(blocks, params)?;
+    triangulate_with(blocks, params, &ShapeMemo::off())
+}
+
+/// [`triangulate`], taking from `memo` every tile of the opening whose
+/// result it holds.
+pub fn triangulate_with(blocks: &[Block], params: &CellParams, memo: &ShapeMemo) -> Result<Cells> {
+    let mut cells = exact_with(blocks, params, memo)?;
     cells.triangles = on_grid(std::mem::take(&mut cells.triangles))?;
     Ok(cells)
 }
@@ -107,6 +114,10 @@ pub fn triangulate(blocks: &[Block], params: &CellParams) -> Result<Cells> {
 /// tile the free space exactly (counter-clockwise, every edge within the
 /// bound). What the bake uses is this, each corner moved to the grid.
 pub fn triangulate_exact(blocks: &[Block], params: &CellParams) -> Result<Cells> {
+    exact_with(blocks, params, &ShapeMemo::off())
+}
+
+fn exact_with(blocks: &[Block], params: &CellParams, memo: &ShapeMemo) -> Result<Cells> {
     if !(params.max_edge > 0.0 && params.max_edge.is_finite()) {
         return Err(crate::Error::scene(format!(
             "cells: the maximum cell edge must be a positive number of metres, got {}",
@@ -122,7 +133,7 @@ pub fn triangulate_exact(blocks: &[Block], params: &CellParams) -> Result<Cells>
     let region = region::region(blocks, params)?;
     let all_free = region::free_space(&region, blocks);
     let open_area = multipolygon_area(&all_free);
-    let free = narrow::open_free_space(&all_free, params.min_gap).free;
+    let free = narrow::open_free_space(&all_free, params.min_gap, memo).free;
     let dropped = if params.min_gap > 0.0 {
         region::difference(&all_free, &free)
     } else {

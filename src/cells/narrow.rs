@@ -14,6 +14,7 @@ use geo::bool_ops::FillRule;
 use glam::DVec2;
 
 use crate::geometry::convert::{multipolygon_from_geo, multipolygon_to_geo};
+use crate::geometry::memo::{MemoKey, ShapeMemo};
 use crate::model::{MultiPolygon, Polygon, Ring, cut_points, piece_count, ring_signed_area2};
 
 /// Distance in metres that the kept free space stays away from every
@@ -49,8 +50,9 @@ pub struct Opened {
 /// then cleaned up, tile by tile (see [`super::tiles`]), then with its
 /// facade runs straightened (see `super::straighten`). `min_gap <= 0`
 /// returns `free` unchanged.
-pub fn open_free_space(free: &MultiPolygon, min_gap: f64) -> Opened {
-    open_free_space_with(free, min_gap, &super::tiles::Tiling::new(min_gap))
+/// Tiles whose opened free space `memo` holds are taken from it.
+pub fn open_free_space(free: &MultiPolygon, min_gap: f64, memo: &ShapeMemo) -> Opened {
+    open_free_space_with(free, min_gap, &super::tiles::Tiling::new(min_gap), memo)
 }
 
 /// [`open_free_space`] with a given tiling (tests compare tilings).
@@ -58,11 +60,18 @@ pub fn open_free_space_with(
     free: &MultiPolygon,
     min_gap: f64,
     tiling: &super::tiles::Tiling,
+    memo: &ShapeMemo,
 ) -> Opened {
     if min_gap.is_nan() || min_gap <= 0.0 || free.is_empty() {
         return Opened { free: free.clone() };
     }
-    let stitched = super::tiles::open_tiled(free, tiling, |piece| open_piece(piece, min_gap));
+    let stitched = super::tiles::open_tiled(
+        free,
+        tiling,
+        memo,
+        || MemoKey::new("open tile").number(min_gap),
+        |piece| open_piece(piece, min_gap),
+    );
     // The border of two tiles may leave short edges where their clean-ups
     // differed: one more clean-up pass over the merged outline.
     let cleaned = clean(&stitched, free, min_gap);

@@ -17,6 +17,7 @@ use glam::DVec2;
 use rayon::prelude::*;
 
 use crate::geometry::convert::{multipolygon_from_geo, multipolygon_to_geo};
+use crate::geometry::memo::{MemoKey, ShapeMemo};
 use crate::model::{MultiPolygon, Polygon, Ring};
 
 /// Most outline edges of the free space (within a tile grown by its margin)
@@ -261,9 +262,15 @@ pub fn all_bounds(free: &MultiPolygon) -> Vec<(Bounds, Vec<Bounds>)> {
 /// tile's free space grown by the margin, cut each result back to its tile
 /// and merge the pieces. Tiles run in parallel under rayon; the result does
 /// not depend on the number of threads (pieces are merged in tile order).
+///
+/// A tile's result depends only on its piece of free space, the tile, the
+/// margin and what `open` does, which `open_key` names (it starts the key
+/// of the tile's result in `memo`: the step and its numbers).
 pub fn open_tiled(
     free: &MultiPolygon,
     tiling: &Tiling,
+    memo: &ShapeMemo,
+    open_key: impl Fn() -> MemoKey + Sync,
     open: impl Fn(&MultiPolygon) -> MultiPolygon + Sync,
 ) -> MultiPolygon {
     let tiles = tiles(free, tiling);
@@ -275,15 +282,26 @@ pub fn open_tiled(
             if piece.is_empty() {
                 return Vec::new();
             }
-            let opened = open(&piece);
-            if opened.is_empty() {
-                return Vec::new();
-            }
-            let cut = multipolygon_to_geo(&opened)
-                .intersection(&geo::MultiPolygon::new(vec![rect(tile.min, tile.max())]));
-            let mut cut = multipolygon_from_geo(&cut, 0.0);
-            snap_to_border(&mut cut, tile);
-            cut
+            let key = || {
+                open_key()
+                    .number(tile.min.x)
+                    .number(tile.min.y)
+                    .number(tile.side)
+                    .number(tiling.margin)
+                    .shape(&piece)
+                    .finish()
+            };
+            memo.shape(key, || {
+                let opened = open(&piece);
+                if opened.is_empty() {
+                    return Vec::new();
+                }
+                let cut = multipolygon_to_geo(&opened)
+                    .intersection(&geo::MultiPolygon::new(vec![rect(tile.min, tile.max())]));
+                let mut cut = multipolygon_from_geo(&cut, 0.0);
+                snap_to_border(&mut cut, tile);
+                cut
+            })
         })
         .collect();
     stitch(pieces, tiling.min_side)

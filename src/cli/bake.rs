@@ -7,10 +7,10 @@ use std::time::Instant;
 
 use clap::Args;
 
-use super::common::{InputArgs, RunArgs, SceneArgs, ViewArgs};
+use super::common::{CacheArgs, InputArgs, RunArgs, SceneArgs, ViewArgs};
 use crate::Result;
 use crate::input::{City, read_city, read_city_bytes};
-use crate::prepare::{StageTime, prepare_read};
+use crate::prepare::StageTime;
 use crate::scale::resume::{bake_range, remove_checkpoint};
 use crate::scale::shard::{ShardArg, ShardSpec};
 
@@ -50,6 +50,8 @@ pub struct BakeArgs {
     /// copied; the file is the same as without --previous.
     #[arg(long, value_name = "OLD.pvs")]
     pub previous: Option<PathBuf>,
+    #[command(flatten)]
+    pub cache: CacheArgs,
 }
 
 /// What `bake --json` prints.
@@ -86,6 +88,9 @@ struct Summary<'a> {
     /// What `--previous` changed, when given.
     #[serde(skip_serializing_if = "Option::is_none")]
     rebake: Option<crate::scale::rebake::RebakeStats>,
+    /// How `--geometry-cache` was used, when given.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    geometry_cache: Option<crate::scale::geometry_cache::CacheReport>,
 }
 
 fn load_city(args: &BakeArgs) -> Result<(City, String)> {
@@ -180,8 +185,19 @@ fn run_in_pool(args: &BakeArgs, threads: usize) -> Result<i32> {
     let read_seconds = t.elapsed().as_secs_f64();
     // After reading (a missing input is the first thing to say), before the work.
     crate::atomic::check_output(&output, &inputs)?;
+    let others: Vec<&Path> = inputs
+        .iter()
+        .copied()
+        .chain([output.as_path()])
+        .chain(args.previous.as_deref())
+        .collect();
+    args.cache.check(&others)?;
     let settings = super::common::settings(&args.scene, Some(&args.view), &city.frame)?;
-    let scene = prepare_read(city, read_seconds, &settings)?;
+    let (scene, geometry_cache) =
+        args.cache
+            .prepare(city, read_seconds, &settings, &mut |line| {
+                eprintln!("{line}")
+            })?;
 
     let engine = crate::visibility::VisibilityEngine::new(&scene)?;
     let cells = scene.cells.triangles.len();
@@ -286,6 +302,7 @@ fn run_in_pool(args: &BakeArgs, threads: usize) -> Result<i32> {
             }),
         cells_copied: rebake.as_ref().map_or(0, |r| r.cells_copied),
         rebake,
+        geometry_cache,
     };
     super::common::print_summary(&[&output], args.json, &summary, |out| {
         print_summary(out, &summary)

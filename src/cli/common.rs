@@ -74,6 +74,73 @@ pub struct SceneArgs {
     pub region: Option<PathBuf>,
 }
 
+/// Where preparation keeps its geometry for the next run.
+#[derive(Args, Debug, Clone, Default)]
+pub struct CacheArgs {
+    /// Keep this run's shrunk footprints and opened free space in FILE, and
+    /// take from it those of an earlier run (of this city or an edited one)
+    /// whose inputs are unchanged, so that preparing an edited city redoes
+    /// only what the edit touched. The result is the same as without; a
+    /// FILE that cannot be used is reported and rewritten.
+    #[arg(long, value_name = "FILE")]
+    pub geometry_cache: Option<PathBuf>,
+}
+
+impl CacheArgs {
+    /// Prepare `city`, through the cache if one was given.
+    pub fn prepare(
+        &self,
+        city: crate::input::City,
+        read_seconds: f64,
+        settings: &Settings,
+        warn: &mut dyn FnMut(String),
+    ) -> Result<(
+        crate::prepare::Scene,
+        Option<crate::scale::geometry_cache::CacheReport>,
+    )> {
+        match &self.geometry_cache {
+            Some(path) => {
+                let (scene, report) = crate::scale::geometry_cache::prepare_cached(
+                    path,
+                    city,
+                    read_seconds,
+                    settings,
+                    warn,
+                )?;
+                Ok((scene, Some(report)))
+            }
+            None => {
+                let memo = crate::geometry::memo::ShapeMemo::off();
+                let scene = crate::prepare::prepare_read(city, read_seconds, settings, &memo)?;
+                Ok((scene, None))
+            }
+        }
+    }
+
+    /// The cache may not be one of the command's inputs or outputs.
+    pub fn check(&self, others: &[&std::path::Path]) -> Result<()> {
+        let Some(cache) = &self.geometry_cache else {
+            return Ok(());
+        };
+        if crate::atomic::is_stdout(cache) {
+            return Err(crate::Error::usage(
+                "--geometry-cache must name a file, not standard output",
+            ));
+        }
+        // A folder, or a folder that does not exist, first; then whether it
+        // is one of the others (by name, or the same file by any name).
+        crate::atomic::check_output(cache, &[])?;
+        if others.contains(&cache.as_path()) || crate::atomic::check_output(cache, others).is_err()
+        {
+            return Err(crate::Error::usage(format!(
+                "--geometry-cache {} names a file the command reads or writes",
+                cache.display()
+            )));
+        }
+        Ok(())
+    }
+}
+
 /// How the bake looks from each cell. Every value left out takes the
 /// default of [`crate::settings`].
 #[derive(Args, Debug, Clone, Default)]

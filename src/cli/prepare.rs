@@ -5,10 +5,9 @@ use std::time::Instant;
 
 use clap::Args;
 
-use super::common::{InputArgs, SceneArgs};
+use super::common::{CacheArgs, InputArgs, SceneArgs};
 use crate::Result;
 use crate::input::read_city;
-use crate::prepare::prepare_read;
 
 #[derive(Args, Debug)]
 pub struct PrepareArgs {
@@ -18,6 +17,8 @@ pub struct PrepareArgs {
     pub input: InputArgs,
     #[command(flatten)]
     pub scene: SceneArgs,
+    #[command(flatten)]
+    pub cache: CacheArgs,
     /// Write the view cells as GeoJSON in the input's frame.
     #[arg(long, value_name = "FILE")]
     pub export_cells: Option<PathBuf>,
@@ -46,8 +47,14 @@ pub fn run(args: &PrepareArgs) -> Result<i32> {
     for output in &outputs {
         crate::atomic::check_output(output, &inputs)?;
     }
+    let all: Vec<&std::path::Path> = inputs.iter().chain(&outputs).copied().collect();
+    args.cache.check(&all)?;
     let settings = super::common::settings(&args.scene, None, &city.frame)?;
-    let scene = prepare_read(city, read_seconds, &settings)?;
+    let (scene, cache) = args
+        .cache
+        .prepare(city, read_seconds, &settings, &mut |line| {
+            eprintln!("{line}")
+        })?;
     if let Some(path) = &args.export_cells {
         crate::atomic::write_atomically(path, crate::prepare::cells_geojson(&scene).as_bytes())?;
     }
@@ -57,7 +64,8 @@ pub fn run(args: &PrepareArgs) -> Result<i32> {
             crate::prepare::occluders_geojson(&scene).as_bytes(),
         )?;
     }
-    let summary = crate::prepare::summary(&scene);
+    let mut summary = crate::prepare::summary(&scene);
+    summary.geometry_cache = cache;
     super::common::print_summary(&outputs, args.json, &summary, |out| {
         let _ = write!(out, "{}", summary.to_text());
     });

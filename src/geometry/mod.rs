@@ -8,6 +8,7 @@
 
 pub mod convert;
 mod erode;
+pub mod memo;
 mod merge;
 
 pub use erode::{EROSION_SAFETY_MARGIN, MIN_PIECE_AREA};
@@ -65,6 +66,12 @@ pub fn erode(area: &MultiPolygon, eps: f64) -> MultiPolygon {
 /// Levels are eroded in parallel; the output order (by block, then level)
 /// does not depend on the thread count.
 pub fn shrink_blocks(blocks: &[Block], eps: f64) -> Vec<Occluder> {
+    shrink_blocks_with(blocks, eps, &memo::ShapeMemo::off())
+}
+
+/// [`shrink_blocks`], taking from `memo` every level whose erosion it holds
+/// (keyed by eps and the level's area).
+pub fn shrink_blocks_with(blocks: &[Block], eps: f64, memo: &memo::ShapeMemo) -> Vec<Occluder> {
     use rayon::prelude::*;
     let levels: Vec<(usize, usize, &Level)> = blocks
         .iter()
@@ -83,7 +90,15 @@ pub fn shrink_blocks(blocks: &[Block], eps: f64) -> Vec<Occluder> {
             block: b,
             level: l,
             height: level.height,
-            shape: erode(&level.area, eps),
+            shape: memo.shape(
+                || {
+                    memo::MemoKey::new("erode")
+                        .number(eps)
+                        .shape(&level.area)
+                        .finish()
+                },
+                || erode(&level.area, eps),
+            ),
         })
         .filter(|o| !o.shape.is_empty())
         .collect()

@@ -7,9 +7,11 @@
 //! Submodules: [`part`] (the shard and checkpoint file), [`shard`] (which
 //! shard, the split, the merge), [`resume`] (the checkpointed bake of a
 //! range), [`rebake`] (the incremental bake from a previous file), [`diff`]
-//! (comparing two `.pvs` files).
+//! (comparing two `.pvs` files), [`geometry_cache`] (the file of shrunk
+//! levels and opened tiles that an edited city's preparation takes from).
 
 pub mod diff;
+pub mod geometry_cache;
 pub mod part;
 pub mod rebake;
 pub mod resume;

@@ -242,8 +242,66 @@ pub fn pack_sets<'a>(sets: impl IntoIterator<Item = &'a [u32]>) -> (Vec<u32>, Ve
     (lens, runs)
 }
 
+/// The payload of a file laid out as a part file is (magic, layout version,
+/// 4 reserved bytes, payload length, SHA-256 of the payload, payload), once
+/// every field of that preamble is checked; `what` names the kind of file
+/// in the error when the magic is wrong.
+pub(crate) fn checked_payload<'a>(
+    bytes: &'a [u8],
+    magic: &[u8; 8],
+    version: u32,
+    what: &str,
+) -> Result<&'a [u8]> {
+    if bytes.len() < magic.len() || bytes[..8] != magic[..] {
+        return Err(Error::format(format!("not {what} (wrong magic)")));
+    }
+    if bytes.len() < PREAMBLE_BYTES {
+        return Err(Error::format(format!(
+            "truncated: {} bytes, shorter than the {PREAMBLE_BYTES}-byte preamble",
+            bytes.len()
+        )));
+    }
+    let found = u32::from_le_bytes(bytes[8..12].try_into().expect("4 bytes"));
+    if found != version {
+        return Err(Error::format(format!(
+            "layout version {found}, this citypvs reads version {version}"
+        )));
+    }
+    let len = u64::from_le_bytes(bytes[16..24].try_into().expect("8 bytes"));
+    let have = (bytes.len() - PREAMBLE_BYTES) as u64;
+    if have < len {
+        return Err(Error::format(format!(
+            "truncated: the payload is {have} of {len} bytes"
+        )));
+    }
+    if have > len {
+        return Err(Error::format(format!(
+            "{} bytes after the end of the payload",
+            have - len
+        )));
+    }
+    let payload = &bytes[PREAMBLE_BYTES..];
+    if Sha256::digest(payload)[..] != bytes[24..56] {
+        return Err(Error::format(
+            "corrupted: the payload's SHA-256 does not match the checksum",
+        ));
+    }
+    Ok(payload)
+}
+
+/// The preamble of [`checked_payload`] for `payload`.
+pub(crate) fn preamble(magic: &[u8; 8], version: u32, payload_len: u64, digest: &[u8]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(PREAMBLE_BYTES);
+    out.extend_from_slice(magic);
+    out.extend_from_slice(&version.to_le_bytes());
+    out.extend_from_slice(&0u32.to_le_bytes());
+    out.extend_from_slice(&payload_len.to_le_bytes());
+    out.extend_from_slice(digest);
+    out
+}
+
 /// Decode with a bincode byte limit of at least `budget` (a power of two).
-fn decode_limited<T: Decode<()>>(
+pub(crate) fn decode_limited<T: Decode<()>>(
     payload: &[u8],
     budget: usize,
 ) -> std::result::Result<(T, usize), bincode::error::DecodeError> {
@@ -480,11 +538,12 @@ impl Part {
         let config = bincode::config::standard();
         let mut digest = DigestWriter::default();
         bincode::encode_into_std_write(self, &mut digest, config).map_err(std::io::Error::other)?;
-        out.write_all(&PART_MAGIC)?;
-        out.write_all(&PART_VERSION.to_le_bytes())?;
-        out.write_all(&0u32.to_le_bytes())?;
-        out.write_all(&digest.len.to_le_bytes())?;
-        out.write_all(&digest.hasher.finalize())?;
+        out.write_all(&preamble(
+            &PART_MAGIC,
+            PART_VERSION,
+            digest.len,
+            &digest.hasher.finalize(),
+        ))?;
         bincode::encode_into_std_write(self, &mut out, config).map_err(std::io::Error::other)?;
         Ok(())
     }
@@ -507,42 +566,12 @@ impl Part {
 
     /// Decode and check a part file's bytes.
     pub fn decode(bytes: &[u8]) -> Result<Part> {
-        if bytes.len() < PART_MAGIC.len() || bytes[..8] != PART_MAGIC {
-            return Err(Error::format(
-                "not a citypvs shard or checkpoint file (wrong magic)",
-            ));
-        }
-        if bytes.len() < PREAMBLE_BYTES {
-            return Err(Error::format(format!(
-                "truncated: {} bytes, shorter than the {PREAMBLE_BYTES}-byte preamble",
-                bytes.len()
-            )));
-        }
-        let version = u32::from_le_bytes(bytes[8..12].try_into().expect("4 bytes"));
-        if version != PART_VERSION {
-            return Err(Error::format(format!(
-                "part layout version {version}, this citypvs reads version {PART_VERSION}"
-            )));
-        }
-        let len = u64::from_le_bytes(bytes[16..24].try_into().expect("8 bytes"));
-        let have = (bytes.len() - PREAMBLE_BYTES) as u64;
-        if have < len {
-            return Err(Error::format(format!(
-                "truncated: the payload is {have} of {len} bytes"
-            )));
-        }
-        if have > len {
-            return Err(Error::format(format!(
-                "{} bytes after the end of the payload",
-                have - len
-            )));
-        }
-        let payload = &bytes[PREAMBLE_BYTES..];
-        if Sha256::digest(payload)[..] != bytes[24..56] {
-            return Err(Error::format(
-                "corrupted: the payload's SHA-256 does not match the checksum",
-            ));
-        }
+        let payload = checked_payload(
+            bytes,
+            &PART_MAGIC,
+            PART_VERSION,
+            "a citypvs shard or checkpoint file",
+        )?;
         let budget = payload
             .len()
             .saturating_mul(DECODE_BUDGET_FACTOR)

@@ -8,6 +8,7 @@ use crate::common::block;
 use citypvs::cells::narrow::open_free_space_with;
 use citypvs::cells::tiles::Tiling;
 use citypvs::cells::{CellParams, triangulate};
+use citypvs::geometry::memo::ShapeMemo;
 use citypvs::geometry::merge_blocks;
 use citypvs::model::{Building, MultiPolygon, Polygon, multipolygon_area, point_in_multipolygon};
 use glam::DVec2;
@@ -71,10 +72,22 @@ fn tiled_opening_equals_the_untiled_one() {
     let free = free_space(&buildings);
     // One tile holds the whole city; then tiles of 8 m (borders every 8 m
     // across every passage), and the default tiling.
-    let whole =
-        open_free_space_with(&free, MIN_GAP, &Tiling::with(MIN_GAP, 4096.0, usize::MAX)).free;
-    let fine = open_free_space_with(&free, MIN_GAP, &Tiling::with(MIN_GAP, 8.0, 1)).free;
-    let default = open_free_space_with(&free, MIN_GAP, &Tiling::new(MIN_GAP)).free;
+    let whole = open_free_space_with(
+        &free,
+        MIN_GAP,
+        &Tiling::with(MIN_GAP, 4096.0, usize::MAX),
+        &ShapeMemo::off(),
+    )
+    .free;
+    let fine = open_free_space_with(
+        &free,
+        MIN_GAP,
+        &Tiling::with(MIN_GAP, 8.0, 1),
+        &ShapeMemo::off(),
+    )
+    .free;
+    let default =
+        open_free_space_with(&free, MIN_GAP, &Tiling::new(MIN_GAP), &ShapeMemo::off()).free;
     assert_eq!(Tiling::with(MIN_GAP, 8.0, 1).min_side, 8.0);
     let a = multipolygon_area(&whole);
     for (name, other) in [("default", &default), ("fine", &fine)] {

@@ -4,6 +4,7 @@
 //! suite links a few binaries instead of one per file.
 
 mod cells_basic;
+mod cells_cache;
 mod cells_narrow;
 mod cells_props;
 mod cells_tiles;

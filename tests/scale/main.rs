@@ -7,6 +7,7 @@
 mod common;
 mod scale_balance;
 mod scale_diff;
+mod scale_geometry_cache;
 mod scale_probe;
 mod scale_rebake;
 mod scale_recipes;

@@ -1,7 +1,8 @@
 //! Incremental bakes (`bake --previous`): after single-building edits of a
 //! generated city (move, delete, add, raise, lower) the file is byte for
 //! byte the one a full bake of the edited city writes, while cells are
-//! really copied, and an edit of one house of a row changes no other member
+//! really copied (with the edited city prepared from a geometry cache of
+//! the base), and an edit of one house of a row changes no other member
 //! whose occluders it leaves alone; a previous file of other settings, an unreadable one or a
 //! version 1 file is refused with one line.
 
@@ -54,10 +55,23 @@ impl Lcg {
 const SETTINGS: [&str; 4] = ["--eps", "2", "--threads", "2"];
 
 fn bake(dir: &Path, city: &str, out: &str, previous: Option<&str>) -> Value {
+    bake_cached(dir, city, out, previous, None)
+}
+
+fn bake_cached(
+    dir: &Path,
+    city: &str,
+    out: &str,
+    previous: Option<&str>,
+    cache: Option<&str>,
+) -> Value {
     let mut args = vec!["bake", city, "-o", out, "--json", "-q"];
     args.extend(SETTINGS);
     if let Some(p) = previous {
         args.extend(["--previous", p]);
+    }
+    if let Some(c) = cache {
+        args.extend(["--geometry-cache", c]);
     }
     let o = run(dir, &args);
     serde_json::from_slice(&o.stdout).unwrap()
@@ -70,11 +84,27 @@ fn twenty_single_building_edits_give_the_full_bakes_bytes() {
     generate(d, "base.geojson", "100", "11");
     let base: Value =
         serde_json::from_slice(&std::fs::read(d.join("base.geojson")).unwrap()).unwrap();
+    // The base is baked without the geometry cache and the rebakes take
+    // from one (made by preparing the base), so each edit's cells and
+    // occluders come partly from the cache, and the bytes are still the
+    // full bake's.
     bake(d, "base.geojson", "base.pvs", None);
+    run(
+        d,
+        &[
+            "prepare",
+            "base.geojson",
+            "--eps",
+            "2",
+            "--geometry-cache",
+            "base.cache",
+        ],
+    );
     let kinds = ["move", "delete", "add", "raise", "lower"];
     let mut rng = Lcg(2026);
     let (mut copied, mut cells, mut in_part, mut unprobed) = (0u64, 0u64, 0u64, 0u64);
     let mut probe_failed = 0u64;
+    let (mut taken, mut computed) = (0u64, 0u64);
     for edit in 0..20 {
         let kind = kinds[edit % kinds.len()];
         let mut city = base.clone();
@@ -97,7 +127,24 @@ fn twenty_single_building_edits_give_the_full_bakes_bytes() {
         }
         std::fs::write(d.join("edit.geojson"), serde_json::to_vec(&city).unwrap()).unwrap();
         bake(d, "edit.geojson", "full.pvs", None);
-        let s = bake(d, "edit.geojson", "inc.pvs", Some("base.pvs"));
+        std::fs::copy(d.join("base.cache"), d.join("edit.cache")).unwrap();
+        let s = bake_cached(
+            d,
+            "edit.geojson",
+            "inc.pvs",
+            Some("base.pvs"),
+            Some("edit.cache"),
+        );
+        let cache = &s["geometry_cache"];
+        assert!(cache["ignored"].is_null(), "edit {edit}: {cache}");
+        taken += cache["taken"].as_u64().unwrap();
+        computed += cache["computed"].as_u64().unwrap();
+        if kind != "raise" && kind != "lower" {
+            assert!(
+                cache["computed"].as_u64().unwrap() > 0,
+                "edit {edit} ({kind}): {cache}"
+            );
+        }
         let full = std::fs::read(d.join("full.pvs")).unwrap();
         let inc = std::fs::read(d.join("inc.pvs")).unwrap();
         assert!(
@@ -117,6 +164,11 @@ fn twenty_single_building_edits_give_the_full_bakes_bytes() {
         unprobed += s["rebake"]["objects_changed_new"].as_u64().unwrap()
             - s["rebake"]["objects_probed"].as_u64().unwrap();
     }
+    // Most shapes came from the cache; the edited ones were computed.
+    assert!(
+        taken > 20 * computed,
+        "{taken} shapes taken, {computed} computed"
+    );
     // Some edits changed a block's occluders only for its other members,
     // which the probe passes over (shown hidden by their old versions).
     assert!(unprobed > 0, "no edit left a changed member unprobed");

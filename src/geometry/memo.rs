@@ -1,0 +1,214 @@
+//! The shape memo: results of the two costly pure steps of preparation (a
+//! block level's erosion by eps, a tile's opened free space), keyed by a
+//! SHA-256 of everything each result depends on, so that a run can take an
+//! earlier run's result wherever those inputs are the same bits
+//! (docs/DESIGN.md, "The geometry cache"). The memo only answers and
+//! records; reading and writing the cache file is `crate::scale::geometry_cache`.
+
+use std::collections::HashMap;
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use sha2::{Digest, Sha256};
+
+use crate::model::MultiPolygon;
+
+/// The SHA-256 of a result's inputs.
+pub type ShapeKey = [u8; 32];
+
+/// What the keys are made from besides the inputs: the citypvs version and
+/// a digest of the source of the geometry and cells stages and of the
+/// locked dependencies (made by `build.rs`), so that a result of another
+/// build never matches.
+pub const BUILD_TAG: &str = concat!(
+    env!("CARGO_PKG_VERSION"),
+    "+",
+    env!("CITYPVS_GEOMETRY_SOURCE")
+);
+
+/// Builds a [`ShapeKey`]: a domain name for the step, then the step's
+/// numbers and its input shape, every float by its bits.
+pub struct MemoKey(Sha256);
+
+impl MemoKey {
+    /// A key of the step named `step`.
+    pub fn new(step: &str) -> MemoKey {
+        let mut h = Sha256::new();
+        for part in ["citypvs shape memo 1", BUILD_TAG, step] {
+            h.update((part.len() as u64).to_le_bytes());
+            h.update(part.as_bytes());
+        }
+        MemoKey(h)
+    }
+
+    pub fn number(mut self, x: f64) -> MemoKey {
+        self.0.update(x.to_bits().to_le_bytes());
+        self
+    }
+
+    /// Every polygon, ring and vertex of `shape`, with their counts.
+    pub fn shape(mut self, shape: &MultiPolygon) -> MemoKey {
+        let count = |h: &mut Sha256, n: usize| h.update((n as u64).to_le_bytes());
+        count(&mut self.0, shape.len());
+        for p in shape {
+            count(&mut self.0, p.holes.len());
+            for ring in std::iter::once(&p.exterior).chain(&p.holes) {
+                count(&mut self.0, ring.len());
+                for v in ring {
+                    self.0.update(v.x.to_bits().to_le_bytes());
+                    self.0.update(v.y.to_bits().to_le_bytes());
+                }
+            }
+        }
+        self
+    }
+
+    pub fn finish(self) -> ShapeKey {
+        self.0.finalize().into()
+    }
+}
+
+/// Earlier results to take from, and this run's results, recorded for the
+/// next run. A memo that is off neither keys nor records anything.
+#[derive(Debug, Default)]
+pub struct ShapeMemo {
+    on: bool,
+    earlier: HashMap<ShapeKey, MultiPolygon>,
+    made: Mutex<Vec<(ShapeKey, MultiPolygon)>>,
+    taken: AtomicU64,
+    computed: AtomicU64,
+}
+
+/// How a memo fared: results taken from the earlier run, and computed.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct MemoStats {
+    pub taken: u64,
+    pub computed: u64,
+}
+
+impl ShapeMemo {
+    /// A memo that is off: every result is computed, nothing is kept.
+    pub fn off() -> ShapeMemo {
+        ShapeMemo::default()
+    }
+
+    /// A memo that takes from `earlier` and records every result.
+    pub fn with(earlier: HashMap<ShapeKey, MultiPolygon>) -> ShapeMemo {
+        ShapeMemo {
+            on: true,
+            earlier,
+            ..ShapeMemo::default()
+        }
+    }
+
+    pub fn is_on(&self) -> bool {
+        self.on
+    }
+
+    /// The result keyed by `key()`: the earlier run's if it has one, else
+    /// `compute()`. The same bits either way, since a key covers every
+    /// input of `compute` and the build that computes it.
+    pub fn shape(
+        &self,
+        key: impl FnOnce() -> ShapeKey,
+        compute: impl FnOnce() -> MultiPolygon,
+    ) -> MultiPolygon {
+        if !self.on {
+            return compute();
+        }
+        let key = key();
+        let shape = match self.earlier.get(&key) {
+            Some(shape) => {
+                self.taken.fetch_add(1, Ordering::Relaxed);
+                shape.clone()
+            }
+            None => {
+                self.computed.fetch_add(1, Ordering::Relaxed);
+                compute()
+            }
+        };
+        self.made
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .push((key, shape.clone()));
+        shape
+    }
+
+    pub fn stats(&self) -> MemoStats {
+        MemoStats {
+            taken: self.taken.load(Ordering::Relaxed),
+            computed: self.computed.load(Ordering::Relaxed),
+        }
+    }
+
+    /// This run's results, by key (one per key), for the next run.
+    pub fn into_results(self) -> Vec<(ShapeKey, MultiPolygon)> {
+        let mut made = self.made.into_inner().unwrap_or_else(|e| e.into_inner());
+        made.sort_unstable_by_key(|e| e.0);
+        made.dedup_by(|a, b| a.0 == b.0);
+        made
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::Polygon;
+    use glam::DVec2;
+
+    fn square(side: f64) -> MultiPolygon {
+        vec![Polygon {
+            exterior: vec![
+                DVec2::ZERO,
+                DVec2::new(side, 0.0),
+                DVec2::new(side, side),
+                DVec2::new(0.0, side),
+            ],
+            holes: vec![],
+        }]
+    }
+
+    #[test]
+    fn keys_differ_by_step_number_and_every_bit_of_the_shape() {
+        let key = |step, x, s: &MultiPolygon| MemoKey::new(step).number(x).shape(s).finish();
+        let a = key("erode", 1.0, &square(2.0));
+        assert_eq!(a, key("erode", 1.0, &square(2.0)));
+        assert_ne!(a, key("tile", 1.0, &square(2.0)));
+        assert_ne!(a, key("erode", 1.0 + f64::EPSILON, &square(2.0)));
+        let mut nudged = square(2.0);
+        nudged[0].exterior[2].x = f64::from_bits(2.0f64.to_bits() + 1);
+        assert_ne!(a, key("erode", 1.0, &nudged));
+        // The same vertices split into other rings are another shape.
+        let mut moved = square(2.0);
+        let last = moved[0].exterior.pop().unwrap();
+        moved[0].holes.push(vec![last]);
+        assert_ne!(a, key("erode", 1.0, &moved));
+    }
+
+    #[test]
+    fn a_memo_takes_what_it_holds_and_records_every_result_once() {
+        let k = |n: f64| MemoKey::new("t").number(n).finish();
+        let memo = ShapeMemo::with(HashMap::from([(k(1.0), square(1.0))]));
+        let got = memo.shape(|| k(1.0), || panic!("held, so not computed"));
+        assert_eq!(got, square(1.0));
+        assert_eq!(memo.shape(|| k(2.0), || square(2.0)), square(2.0));
+        assert_eq!(memo.shape(|| k(2.0), || square(2.0)), square(2.0));
+        assert_eq!(
+            memo.stats(),
+            MemoStats {
+                taken: 1,
+                computed: 2
+            }
+        );
+        let results = memo.into_results();
+        assert_eq!(results.len(), 2);
+        assert!(results.windows(2).all(|w| w[0].0 < w[1].0));
+
+        let off = ShapeMemo::off();
+        assert_eq!(
+            off.shape(|| panic!("off: no key"), || square(3.0)),
+            square(3.0)
+        );
+        assert!(off.into_results().is_empty());
+    }
+}

@@ -1,0 +1,305 @@
+//! The geometry cache file (`--geometry-cache FILE`): the shrunk levels and
+//! opened tiles of an earlier preparation, by the key of their inputs
+//! (`crate::geometry::memo`), so that preparing an edited city computes
+//! only the levels and tiles the edit touched (docs/DESIGN.md, "The
+//! geometry cache"; layout in docs/scale-out.md).
+//!
+//! Owns reading (every field checked, never trusted for a size) and
+//! writing that file. A file that cannot be used is reported in one line
+//! and treated as empty: the cache changes how long preparing takes, never
+//! what it makes.
+
+use std::collections::HashMap;
+use std::path::Path;
+
+use bincode::{Decode, Encode};
+use glam::DVec2;
+use sha2::{Digest, Sha256};
+
+use super::part::{checked_payload, decode_limited, preamble};
+use crate::geometry::memo::{BUILD_TAG, ShapeKey};
+use crate::model::{MultiPolygon, Polygon, Ring};
+use crate::{Error, Result};
+
+pub const CACHE_MAGIC: [u8; 8] = *b"CPVSGEOC";
+pub const CACHE_VERSION: u32 = 1;
+
+/// Bytes of bincode's decoded values allowed per payload byte (a vertex is
+/// 16 bytes decoded from at least 16, a count 24 from at least 1).
+const DECODE_BUDGET_FACTOR: usize = 32;
+
+#[derive(Encode, Decode)]
+struct CacheFile {
+    /// [`BUILD_TAG`] of the build that wrote it.
+    build: String,
+    /// Ascending by key, one entry per key.
+    entries: Vec<Entry>,
+}
+
+#[derive(Encode, Decode)]
+struct Entry {
+    key: ShapeKey,
+    shape: Vec<PolygonRecord>,
+}
+
+#[derive(Encode, Decode)]
+struct PolygonRecord {
+    exterior: Vec<[f64; 2]>,
+    holes: Vec<Vec<[f64; 2]>>,
+}
+
+/// What a cache file holds.
+pub type Shapes = HashMap<ShapeKey, MultiPolygon>;
+
+/// Read the cache at `path`: `Ok(None)` when there is no such file; an
+/// error (starting with the file's name) when it is not a cache this build
+/// can use.
+pub fn read(path: &Path) -> Result<Option<Shapes>> {
+    if !path.exists() {
+        return Ok(None);
+    }
+    let starts_right = |b: &[u8]| b.starts_with(&CACHE_MAGIC);
+    let bytes = crate::infile::read_whole(path, starts_right, "a geometry cache")?;
+    decode(&bytes)
+        .map(Some)
+        .map_err(|e| e.context(path.display()))
+}
+
+/// Decode and check a cache file's bytes.
+pub fn decode(bytes: &[u8]) -> Result<Shapes> {
+    let payload = checked_payload(
+        bytes,
+        &CACHE_MAGIC,
+        CACHE_VERSION,
+        "a citypvs geometry cache",
+    )?;
+    let budget = payload
+        .len()
+        .saturating_mul(DECODE_BUDGET_FACTOR)
+        .saturating_add(1 << 16);
+    let (file, used): (CacheFile, usize) = decode_limited(payload, budget)
+        .map_err(|e| Error::format(format!("invalid payload: {e}")))?;
+    if used != payload.len() {
+        return Err(Error::format(format!(
+            "invalid payload: {} unread bytes",
+            payload.len() - used
+        )));
+    }
+    if file.build != BUILD_TAG {
+        return Err(Error::format(format!(
+            "made by another build of citypvs ({}; this is {BUILD_TAG})",
+            file.build
+        )));
+    }
+    let mut shapes = Shapes::with_capacity(file.entries.len());
+    for entry in file.entries {
+        let shape = entry
+            .shape
+            .into_iter()
+            .map(|p| {
+                Ok(Polygon {
+                    exterior: ring(p.exterior)?,
+                    holes: p.holes.into_iter().map(ring).collect::<Result<_>>()?,
+                })
+            })
+            .collect::<Result<MultiPolygon>>()?;
+        if shapes.insert(entry.key, shape).is_some() {
+            return Err(Error::format("invalid payload: a key twice"));
+        }
+    }
+    Ok(shapes)
+}
+
+fn ring(points: Vec<[f64; 2]>) -> Result<Ring> {
+    if points.len() < 3 || points.iter().flatten().any(|v| !v.is_finite()) {
+        return Err(Error::format(
+            "invalid payload: a ring of fewer than 3 points or with a coordinate that is not a finite number",
+        ));
+    }
+    Ok(points.into_iter().map(DVec2::from).collect())
+}
+
+/// The bytes of a cache holding `results` (ascending by key, one per key).
+pub fn encode(results: &[(ShapeKey, MultiPolygon)]) -> Vec<u8> {
+    let record = |r: &Ring| r.iter().map(|v| v.to_array()).collect::<Vec<_>>();
+    let file = CacheFile {
+        build: BUILD_TAG.to_string(),
+        entries: results
+            .iter()
+            .map(|(key, shape)| Entry {
+                key: *key,
+                shape: shape
+                    .iter()
+                    .map(|p| PolygonRecord {
+                        exterior: record(&p.exterior),
+                        holes: p.holes.iter().map(record).collect(),
+                    })
+                    .collect(),
+            })
+            .collect(),
+    };
+    seal(
+        bincode::encode_to_vec(&file, bincode::config::standard())
+            .expect("encoding to a vector does not fail"),
+    )
+}
+
+/// The file's bytes around a payload: the preamble, then the payload.
+fn seal(payload: Vec<u8>) -> Vec<u8> {
+    let mut bytes = preamble(
+        &CACHE_MAGIC,
+        CACHE_VERSION,
+        payload.len() as u64,
+        &Sha256::digest(&payload),
+    );
+    bytes.extend_from_slice(&payload);
+    bytes
+}
+
+/// Write the cache atomically (a reader never sees half a file).
+pub fn write(path: &Path, results: &[(ShapeKey, MultiPolygon)]) -> Result<()> {
+    crate::atomic::write_atomically(path, &encode(results))
+}
+
+/// How a preparation used its cache, for the summary.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct CacheReport {
+    pub file: String,
+    /// Shrunk levels and opened tiles taken from the earlier run.
+    pub taken: u64,
+    /// Those computed (not in the cache, or no usable cache).
+    pub computed: u64,
+    /// Why the file there was not used, if one was there and was not.
+    pub ignored: Option<String>,
+    /// Entries written for the next run.
+    pub written: usize,
+}
+
+/// [`crate::prepare::prepare_read`] with the cache at `path`: its shapes
+/// are taken where their keys match, and the file is then rewritten with
+/// this run's shapes. A file there that cannot be used is reported through
+/// `warn` in one line and replaced.
+pub fn prepare_cached(
+    path: &Path,
+    city: crate::input::City,
+    read_seconds: f64,
+    settings: &crate::settings::Settings,
+    warn: &mut dyn FnMut(String),
+) -> Result<(crate::prepare::Scene, CacheReport)> {
+    let (earlier, ignored) = match read(path) {
+        Ok(shapes) => (shapes.unwrap_or_default(), None),
+        Err(e) => {
+            warn(format!("ignoring geometry cache {e}; it will be rewritten"));
+            (Shapes::new(), Some(e.to_string()))
+        }
+    };
+    let memo = crate::geometry::memo::ShapeMemo::with(earlier);
+    let scene = crate::prepare::prepare_read(city, read_seconds, settings, &memo)?;
+    let stats = memo.stats();
+    let results = memo.into_results();
+    write(path, &results)?;
+    Ok((
+        scene,
+        CacheReport {
+            file: path.display().to_string(),
+            taken: stats.taken,
+            computed: stats.computed,
+            ignored,
+            written: results.len(),
+        },
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::memo::MemoKey;
+
+    fn results() -> Vec<(ShapeKey, MultiPolygon)> {
+        let square = |s: f64| Polygon {
+            exterior: vec![
+                DVec2::ZERO,
+                DVec2::new(s, 0.0),
+                DVec2::new(s, s),
+                DVec2::new(0.0, s),
+            ],
+            holes: vec![vec![
+                DVec2::splat(0.25 * s),
+                DVec2::new(0.25 * s, 0.5 * s),
+                DVec2::splat(0.5 * s),
+            ]],
+        };
+        let mut r: Vec<(ShapeKey, MultiPolygon)> = (1..5)
+            .map(|i| {
+                let key = MemoKey::new("test").number(i as f64).finish();
+                (key, vec![square(i as f64 + 0.1); i % 3])
+            })
+            .collect();
+        r.sort_by_key(|e| e.0);
+        r
+    }
+
+    #[test]
+    fn a_cache_reads_back_bit_for_bit() {
+        let results = results();
+        let shapes = decode(&encode(&results)).unwrap();
+        assert_eq!(shapes.len(), results.len());
+        for (key, shape) in &results {
+            assert_eq!(&shapes[key], shape);
+        }
+    }
+
+    #[test]
+    fn a_damaged_cache_is_an_error_never_a_panic() {
+        let bytes = encode(&results());
+        for cut in [0, 7, 20, 56, bytes.len() - 1] {
+            assert!(decode(&bytes[..cut]).is_err(), "cut at {cut}");
+        }
+        for at in [0, 9, 30, 60, bytes.len() - 2] {
+            let mut bad = bytes.clone();
+            bad[at] ^= 0x40;
+            assert!(decode(&bad).is_err(), "byte {at} flipped");
+        }
+        let mut longer = bytes.clone();
+        longer.push(0);
+        assert!(decode(&longer).is_err());
+    }
+
+    /// A payload whose checksum is right but whose contents are not:
+    /// another build, a huge count, a coordinate that is not finite.
+    #[test]
+    fn a_well_sealed_cache_with_bad_contents_is_refused() {
+        let sealed = |file: &CacheFile| {
+            seal(bincode::encode_to_vec(file, bincode::config::standard()).unwrap())
+        };
+        let entry = |x: f64| Entry {
+            key: [7; 32],
+            shape: vec![PolygonRecord {
+                exterior: vec![[0.0, 0.0], [1.0, 0.0], [x, 1.0]],
+                holes: vec![],
+            }],
+        };
+        let other = CacheFile {
+            build: "0.0.0+0".into(),
+            entries: vec![entry(1.0)],
+        };
+        let err = decode(&sealed(&other)).unwrap_err().to_string();
+        assert!(err.contains("another build"), "{err}");
+        let nan = CacheFile {
+            build: BUILD_TAG.into(),
+            entries: vec![entry(f64::NAN)],
+        };
+        assert!(decode(&sealed(&nan)).is_err());
+        let twice = CacheFile {
+            build: BUILD_TAG.into(),
+            entries: vec![entry(1.0), entry(2.0)],
+        };
+        assert!(decode(&sealed(&twice)).is_err());
+        // A count of 2^40 entries in a few bytes: refused by the decode
+        // budget before anything that size is allocated.
+        let mut payload = bincode::encode_to_vec(BUILD_TAG, bincode::config::standard()).unwrap();
+        payload.extend(bincode::encode_to_vec(1u64 << 40, bincode::config::standard()).unwrap());
+        let err = decode(&seal(payload)).unwrap_err().to_string();
+        assert!(err.contains("LimitExceeded"), "{err}");
+    }
+}
