@@ -74,7 +74,9 @@ impl MemoKey {
 pub struct ShapeMemo {
     on: bool,
     earlier: HashMap<ShapeKey, MultiPolygon>,
-    made: Mutex<Vec<(ShapeKey, MultiPolygon)>>,
+    /// This run's keys, with the shape where it was computed (a key taken
+    /// from `earlier` keeps its shape there: no second copy).
+    made: Mutex<Vec<(ShapeKey, Option<MultiPolygon>)>>,
     taken: AtomicU64,
     computed: AtomicU64,
 }
@@ -117,20 +119,22 @@ impl ShapeMemo {
             return compute();
         }
         let key = key();
-        let shape = match self.earlier.get(&key) {
+        let (shape, kept) = match self.earlier.get(&key) {
             Some(shape) => {
                 self.taken.fetch_add(1, Ordering::Relaxed);
-                shape.clone()
+                (shape.clone(), None)
             }
             None => {
                 self.computed.fetch_add(1, Ordering::Relaxed);
-                compute()
+                let shape = compute();
+                let kept = shape.clone();
+                (shape, Some(kept))
             }
         };
         self.made
             .lock()
             .unwrap_or_else(|e| e.into_inner())
-            .push((key, shape.clone()));
+            .push((key, kept));
         shape
     }
 
@@ -141,12 +145,39 @@ impl ShapeMemo {
         }
     }
 
-    /// This run's results, by key (one per key), for the next run.
-    pub fn into_results(self) -> Vec<(ShapeKey, MultiPolygon)> {
+    /// This run's results, for the next run.
+    pub fn into_results(self) -> MemoResults {
         let mut made = self.made.into_inner().unwrap_or_else(|e| e.into_inner());
         made.sort_unstable_by_key(|e| e.0);
         made.dedup_by(|a, b| a.0 == b.0);
-        made
+        MemoResults {
+            earlier: self.earlier,
+            made,
+        }
+    }
+}
+
+/// The results of one run: every key it asked for, with its shape.
+pub struct MemoResults {
+    earlier: HashMap<ShapeKey, MultiPolygon>,
+    made: Vec<(ShapeKey, Option<MultiPolygon>)>,
+}
+
+impl MemoResults {
+    pub fn len(&self) -> usize {
+        self.made.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.made.is_empty()
+    }
+
+    /// Ascending by key, one per key.
+    pub fn iter(&self) -> impl Iterator<Item = (&ShapeKey, &MultiPolygon)> {
+        self.made.iter().map(|(key, shape)| {
+            let shape = shape.as_ref().unwrap_or_else(|| &self.earlier[key]);
+            (key, shape)
+        })
     }
 }
 
@@ -201,8 +232,14 @@ mod tests {
             }
         );
         let results = memo.into_results();
-        assert_eq!(results.len(), 2);
-        assert!(results.windows(2).all(|w| w[0].0 < w[1].0));
+        let listed: Vec<_> = results.iter().collect();
+        assert_eq!(listed.len(), 2);
+        assert!(listed[0].0 < listed[1].0);
+        let mut expected = vec![(k(1.0), square(1.0)), (k(2.0), square(2.0))];
+        expected.sort_by_key(|e| e.0);
+        for ((key, shape), (k, s)) in listed.into_iter().zip(&expected) {
+            assert_eq!((key, shape), (k, s));
+        }
 
         let off = ShapeMemo::off();
         assert_eq!(

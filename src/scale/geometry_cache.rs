@@ -14,10 +14,9 @@ use std::path::Path;
 
 use bincode::{Decode, Encode};
 use glam::DVec2;
-use sha2::{Digest, Sha256};
 
-use super::part::{checked_payload, decode_limited, preamble};
-use crate::geometry::memo::{BUILD_TAG, ShapeKey};
+use super::part::{checked_payload, decode_limited, write_sealed};
+use crate::geometry::memo::{BUILD_TAG, MemoResults, ShapeKey};
 use crate::model::{MultiPolygon, Polygon, Ring};
 use crate::{Error, Result};
 
@@ -119,46 +118,54 @@ fn ring(points: Vec<[f64; 2]>) -> Result<Ring> {
     Ok(points.into_iter().map(DVec2::from).collect())
 }
 
-/// The bytes of a cache holding `results` (ascending by key, one per key).
-pub fn encode(results: &[(ShapeKey, MultiPolygon)]) -> Vec<u8> {
-    let record = |r: &Ring| r.iter().map(|v| v.to_array()).collect::<Vec<_>>();
-    let file = CacheFile {
-        build: BUILD_TAG.to_string(),
-        entries: results
-            .iter()
-            .map(|(key, shape)| Entry {
-                key: *key,
-                shape: shape
-                    .iter()
-                    .map(|p| PolygonRecord {
-                        exterior: record(&p.exterior),
-                        holes: p.holes.iter().map(record).collect(),
-                    })
-                    .collect(),
-            })
-            .collect(),
-    };
-    seal(
-        bincode::encode_to_vec(&file, bincode::config::standard())
-            .expect("encoding to a vector does not fail"),
-    )
+/// What a cache file's payload is written from: the shapes by reference,
+/// coded as [`CacheFile`] is decoded (bincode writes a vector as its
+/// length, then its items, and an array as its items).
+struct CacheOut<'a> {
+    results: &'a MemoResults,
 }
 
-/// The file's bytes around a payload: the preamble, then the payload.
-fn seal(payload: Vec<u8>) -> Vec<u8> {
-    let mut bytes = preamble(
-        &CACHE_MAGIC,
-        CACHE_VERSION,
-        payload.len() as u64,
-        &Sha256::digest(&payload),
-    );
-    bytes.extend_from_slice(&payload);
-    bytes
+impl Encode for CacheOut<'_> {
+    fn encode<E: bincode::enc::Encoder>(
+        &self,
+        e: &mut E,
+    ) -> std::result::Result<(), bincode::error::EncodeError> {
+        let len = |e: &mut E, n: usize| (n as u64).encode(e);
+        let ring = |e: &mut E, r: &Ring| {
+            len(e, r.len())?;
+            r.iter().try_for_each(|v| [v.x, v.y].encode(e))
+        };
+        BUILD_TAG.encode(e)?;
+        len(e, self.results.len())?;
+        for (key, shape) in self.results.iter() {
+            key.encode(e)?;
+            len(e, shape.len())?;
+            for p in shape {
+                ring(e, &p.exterior)?;
+                len(e, p.holes.len())?;
+                p.holes.iter().try_for_each(|h| ring(e, h))?;
+            }
+        }
+        Ok(())
+    }
 }
 
-/// Write the cache atomically (a reader never sees half a file).
-pub fn write(path: &Path, results: &[(ShapeKey, MultiPolygon)]) -> Result<()> {
-    crate::atomic::write_atomically(path, &encode(results))
+/// The bytes of a cache holding `results`.
+pub fn encode(results: &MemoResults) -> Vec<u8> {
+    let mut out = Vec::new();
+    write_sealed(&mut out, &CACHE_MAGIC, CACHE_VERSION, &CacheOut { results })
+        .expect("writing to a vector does not fail");
+    out
+}
+
+/// Write the cache atomically (a reader never sees half a file), the
+/// payload streamed, never held whole.
+pub fn write(path: &Path, results: &MemoResults) -> Result<()> {
+    crate::atomic::write_atomically_with(path, &mut |w| {
+        let mut w = std::io::BufWriter::new(w);
+        write_sealed(&mut w, &CACHE_MAGIC, CACHE_VERSION, &CacheOut { results })?;
+        std::io::Write::flush(&mut w)
+    })
 }
 
 /// How a preparation used its cache, for the summary.
@@ -213,10 +220,12 @@ pub fn prepare_cached(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::memo::MemoKey;
+    use crate::geometry::memo::{MemoKey, ShapeMemo};
+    use sha2::{Digest, Sha256};
 
-    fn results() -> Vec<(ShapeKey, MultiPolygon)> {
-        let square = |s: f64| Polygon {
+    fn shape(i: usize) -> MultiPolygon {
+        let s = i as f64 + 0.1;
+        let square = Polygon {
             exterior: vec![
                 DVec2::ZERO,
                 DVec2::new(s, 0.0),
@@ -229,24 +238,65 @@ mod tests {
                 DVec2::splat(0.5 * s),
             ]],
         };
-        let mut r: Vec<(ShapeKey, MultiPolygon)> = (1..5)
-            .map(|i| {
-                let key = MemoKey::new("test").number(i as f64).finish();
-                (key, vec![square(i as f64 + 0.1); i % 3])
-            })
-            .collect();
-        r.sort_by_key(|e| e.0);
-        r
+        vec![square; i % 3]
+    }
+
+    fn key(i: usize) -> ShapeKey {
+        MemoKey::new("test").number(i as f64).finish()
+    }
+
+    /// A run's results, some taken from an earlier run (1 and 2), some
+    /// computed (3 and 4).
+    fn results() -> MemoResults {
+        let memo = ShapeMemo::with((1..3).map(|i| (key(i), shape(i))).collect());
+        for i in 1..5 {
+            memo.shape(|| key(i), || shape(i));
+        }
+        memo.into_results()
+    }
+
+    /// The bytes of a file around a payload coded some other way.
+    fn sealed(payload: Vec<u8>) -> Vec<u8> {
+        let mut bytes = super::super::part::preamble(
+            &CACHE_MAGIC,
+            CACHE_VERSION,
+            payload.len() as u64,
+            &Sha256::digest(&payload),
+        );
+        bytes.extend_from_slice(&payload);
+        bytes
     }
 
     #[test]
     fn a_cache_reads_back_bit_for_bit() {
-        let results = results();
-        let shapes = decode(&encode(&results)).unwrap();
-        assert_eq!(shapes.len(), results.len());
-        for (key, shape) in &results {
-            assert_eq!(&shapes[key], shape);
+        let shapes = decode(&encode(&results())).unwrap();
+        assert_eq!(shapes.len(), 4);
+        for i in 1..5 {
+            assert_eq!(shapes[&key(i)], shape(i));
         }
+        // The streamed payload is the one the decoded type codes.
+        let file = CacheFile {
+            build: BUILD_TAG.into(),
+            entries: results()
+                .iter()
+                .map(|(k, s)| Entry {
+                    key: *k,
+                    shape: s
+                        .iter()
+                        .map(|p| PolygonRecord {
+                            exterior: p.exterior.iter().map(|v| v.to_array()).collect(),
+                            holes: p
+                                .holes
+                                .iter()
+                                .map(|h| h.iter().map(|v| v.to_array()).collect())
+                                .collect(),
+                        })
+                        .collect(),
+                })
+                .collect(),
+        };
+        let coded = bincode::encode_to_vec(&file, bincode::config::standard()).unwrap();
+        assert!(encode(&results()) == sealed(coded));
     }
 
     #[test]
@@ -269,8 +319,8 @@ mod tests {
     /// another build, a huge count, a coordinate that is not finite.
     #[test]
     fn a_well_sealed_cache_with_bad_contents_is_refused() {
-        let sealed = |file: &CacheFile| {
-            seal(bincode::encode_to_vec(file, bincode::config::standard()).unwrap())
+        let coded = |file: &CacheFile| {
+            sealed(bincode::encode_to_vec(file, bincode::config::standard()).unwrap())
         };
         let entry = |x: f64| Entry {
             key: [7; 32],
@@ -283,23 +333,23 @@ mod tests {
             build: "0.0.0+0".into(),
             entries: vec![entry(1.0)],
         };
-        let err = decode(&sealed(&other)).unwrap_err().to_string();
+        let err = decode(&coded(&other)).unwrap_err().to_string();
         assert!(err.contains("another build"), "{err}");
         let nan = CacheFile {
             build: BUILD_TAG.into(),
             entries: vec![entry(f64::NAN)],
         };
-        assert!(decode(&sealed(&nan)).is_err());
+        assert!(decode(&coded(&nan)).is_err());
         let twice = CacheFile {
             build: BUILD_TAG.into(),
             entries: vec![entry(1.0), entry(2.0)],
         };
-        assert!(decode(&sealed(&twice)).is_err());
+        assert!(decode(&coded(&twice)).is_err());
         // A count of 2^40 entries in a few bytes: refused by the decode
         // budget before anything that size is allocated.
         let mut payload = bincode::encode_to_vec(BUILD_TAG, bincode::config::standard()).unwrap();
         payload.extend(bincode::encode_to_vec(1u64 << 40, bincode::config::standard()).unwrap());
-        let err = decode(&seal(payload)).unwrap_err().to_string();
+        let err = decode(&sealed(payload)).unwrap_err().to_string();
         assert!(err.contains("LimitExceeded"), "{err}");
     }
 }

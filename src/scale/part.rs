@@ -289,6 +289,29 @@ pub(crate) fn checked_payload<'a>(
     Ok(payload)
 }
 
+/// Write `value` as the bincode payload of a file laid out as a part file
+/// (see [`checked_payload`]), in two passes (one to learn the payload's
+/// length and digest for the preamble, one to write it), so that the
+/// payload is never held whole.
+pub(crate) fn write_sealed(
+    mut out: &mut dyn Write,
+    magic: &[u8; 8],
+    version: u32,
+    value: &impl Encode,
+) -> std::io::Result<()> {
+    let config = bincode::config::standard();
+    let mut digest = DigestWriter::default();
+    bincode::encode_into_std_write(value, &mut digest, config).map_err(std::io::Error::other)?;
+    out.write_all(&preamble(
+        magic,
+        version,
+        digest.len,
+        &digest.hasher.finalize(),
+    ))?;
+    bincode::encode_into_std_write(value, &mut out, config).map_err(std::io::Error::other)?;
+    Ok(())
+}
+
 /// The preamble of [`checked_payload`] for `payload`.
 pub(crate) fn preamble(magic: &[u8; 8], version: u32, payload_len: u64, digest: &[u8]) -> Vec<u8> {
     let mut out = Vec::with_capacity(PREAMBLE_BYTES);
@@ -534,18 +557,8 @@ impl Part {
     /// Write the file's bytes to `out` in two passes (one to learn the
     /// payload's length and digest for the preamble, one to write it), so
     /// that no copy of the sets is held beside the part.
-    fn write_to(&self, mut out: &mut dyn Write) -> std::io::Result<()> {
-        let config = bincode::config::standard();
-        let mut digest = DigestWriter::default();
-        bincode::encode_into_std_write(self, &mut digest, config).map_err(std::io::Error::other)?;
-        out.write_all(&preamble(
-            &PART_MAGIC,
-            PART_VERSION,
-            digest.len,
-            &digest.hasher.finalize(),
-        ))?;
-        bincode::encode_into_std_write(self, &mut out, config).map_err(std::io::Error::other)?;
-        Ok(())
+    fn write_to(&self, out: &mut dyn Write) -> std::io::Result<()> {
+        write_sealed(out, &PART_MAGIC, PART_VERSION, self)
     }
 
     /// Write the file atomically (see `Part::write_to`).

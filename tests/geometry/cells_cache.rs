@@ -95,7 +95,11 @@ proptest! {
         let first = ShapeMemo::with(HashMap::new());
         let base_scene = prepare_with(city(base.clone()), &settings, &first).unwrap();
         prop_assert_eq!(first.stats().taken, 0);
-        let earlier: HashMap<_, _> = first.into_results().into_iter().collect();
+        let earlier: HashMap<_, _> = first
+            .into_results()
+            .iter()
+            .map(|(k, s)| (*k, s.clone()))
+            .collect();
         // The same city again: everything is taken, nothing computed.
         let again = ShapeMemo::with(earlier.clone());
         let same = prepare_with(city(base.clone()), &settings, &again).unwrap();
