@@ -15,17 +15,13 @@ use std::path::Path;
 use bincode::{Decode, Encode};
 use glam::DVec2;
 
-use super::part::{checked_payload, decode_limited, write_sealed};
+use super::part::{decode_sealed, write_sealed};
 use crate::geometry::memo::{BUILD_TAG, MemoResults, ShapeKey};
 use crate::model::{MultiPolygon, Polygon, Ring};
 use crate::{Error, Result};
 
 pub const CACHE_MAGIC: [u8; 8] = *b"CPVSGEOC";
 pub const CACHE_VERSION: u32 = 1;
-
-/// Bytes of bincode's decoded values allowed per payload byte (a vertex is
-/// 16 bytes decoded from at least 16, a count 24 from at least 1).
-const DECODE_BUDGET_FACTOR: usize = 32;
 
 #[derive(Encode, Decode)]
 struct CacheFile {
@@ -66,24 +62,12 @@ pub fn read(path: &Path) -> Result<Option<Shapes>> {
 
 /// Decode and check a cache file's bytes.
 pub fn decode(bytes: &[u8]) -> Result<Shapes> {
-    let payload = checked_payload(
+    let file: CacheFile = decode_sealed(
         bytes,
         &CACHE_MAGIC,
         CACHE_VERSION,
         "a citypvs geometry cache",
     )?;
-    let budget = payload
-        .len()
-        .saturating_mul(DECODE_BUDGET_FACTOR)
-        .saturating_add(1 << 16);
-    let (file, used): (CacheFile, usize) = decode_limited(payload, budget)
-        .map_err(|e| Error::format(format!("invalid payload: {e}")))?;
-    if used != payload.len() {
-        return Err(Error::format(format!(
-            "invalid payload: {} unread bytes",
-            payload.len() - used
-        )));
-    }
     if file.build != BUILD_TAG {
         return Err(Error::format(format!(
             "made by another build of citypvs ({}; this is {BUILD_TAG})",

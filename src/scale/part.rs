@@ -246,7 +246,7 @@ pub fn pack_sets<'a>(sets: impl IntoIterator<Item = &'a [u32]>) -> (Vec<u32>, Ve
 /// 4 reserved bytes, payload length, SHA-256 of the payload, payload), once
 /// every field of that preamble is checked; `what` names the kind of file
 /// in the error when the magic is wrong.
-pub(crate) fn checked_payload<'a>(
+fn checked_payload<'a>(
     bytes: &'a [u8],
     magic: &[u8; 8],
     version: u32,
@@ -289,6 +289,33 @@ pub(crate) fn checked_payload<'a>(
     Ok(payload)
 }
 
+/// The value coded in the payload of a file laid out as a part file (see
+/// [`checked_payload`]), decoded with a bincode byte limit of
+/// [`DECODE_BUDGET_FACTOR`] times the payload's size (plus 64 KiB), so that
+/// no length prefix in a crafted file makes the reader allocate more; the
+/// whole payload must be read.
+pub(crate) fn decode_sealed<T: Decode<()>>(
+    bytes: &[u8],
+    magic: &[u8; 8],
+    version: u32,
+    what: &str,
+) -> Result<T> {
+    let payload = checked_payload(bytes, magic, version, what)?;
+    let budget = payload
+        .len()
+        .saturating_mul(DECODE_BUDGET_FACTOR)
+        .saturating_add(1 << 16);
+    let (value, used): (T, usize) = decode_limited(payload, budget)
+        .map_err(|e| Error::format(format!("invalid payload: {e}")))?;
+    if used != payload.len() {
+        return Err(Error::format(format!(
+            "invalid payload: {} unread bytes",
+            payload.len() - used
+        )));
+    }
+    Ok(value)
+}
+
 /// Write `value` as the bincode payload of a file laid out as a part file
 /// (see [`checked_payload`]), in two passes (one to learn the payload's
 /// length and digest for the preamble, one to write it), so that the
@@ -324,7 +351,7 @@ pub(crate) fn preamble(magic: &[u8; 8], version: u32, payload_len: u64, digest: 
 }
 
 /// Decode with a bincode byte limit of at least `budget` (a power of two).
-pub(crate) fn decode_limited<T: Decode<()>>(
+fn decode_limited<T: Decode<()>>(
     payload: &[u8],
     budget: usize,
 ) -> std::result::Result<(T, usize), bincode::error::DecodeError> {
@@ -579,24 +606,12 @@ impl Part {
 
     /// Decode and check a part file's bytes.
     pub fn decode(bytes: &[u8]) -> Result<Part> {
-        let payload = checked_payload(
+        let part: Part = decode_sealed(
             bytes,
             &PART_MAGIC,
             PART_VERSION,
             "a citypvs shard or checkpoint file",
         )?;
-        let budget = payload
-            .len()
-            .saturating_mul(DECODE_BUDGET_FACTOR)
-            .saturating_add(1 << 16);
-        let (part, used): (Part, usize) = decode_limited(payload, budget)
-            .map_err(|e| Error::format(format!("invalid payload: {e}")))?;
-        if used != payload.len() {
-            return Err(Error::format(format!(
-                "invalid payload: {} unread bytes",
-                payload.len() - used
-            )));
-        }
         part.check()?;
         Ok(part)
     }

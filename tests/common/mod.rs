@@ -98,17 +98,8 @@ pub fn hand_scene(buildings: Vec<Building>, cells: Vec<[DVec2; 3]>, eps: f64) ->
         })
         .filter(|o| !o.shape.is_empty())
         .collect();
-    let city = City {
-        buildings,
-        frame: Frame::Metric {
-            origin: DVec2::ZERO,
-            crs: None,
-        },
-        source_hash: [0; 32],
-        report: InputReport::default(),
-    };
     Scene {
-        city,
+        city: metric_city(buildings),
         blocks: vec![],
         occluders,
         cells: Cells {
@@ -124,6 +115,19 @@ pub fn hand_scene(buildings: Vec<Building>, cells: Vec<[DVec2; 3]>, eps: f64) ->
         })
         .expect("valid eps"),
         timings: vec![],
+    }
+}
+
+/// A city of `buildings` already in local metres (origin at 0, 0).
+pub fn metric_city(buildings: Vec<Building>) -> City {
+    City {
+        buildings,
+        frame: Frame::Metric {
+            origin: DVec2::ZERO,
+            crs: None,
+        },
+        source_hash: [0; 32],
+        report: InputReport::default(),
     }
 }
 

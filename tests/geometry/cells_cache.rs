@@ -7,25 +7,12 @@
 use std::collections::HashMap;
 
 use citypvs::geometry::memo::ShapeMemo;
-use citypvs::input::{City, InputReport};
 use citypvs::model::Building;
 use citypvs::prepare::{Scene, prepare, prepare_with};
 use glam::DVec2;
 use proptest::prelude::*;
 
-use super::common::generated_buildings;
-
-fn city(buildings: Vec<Building>) -> City {
-    City {
-        buildings,
-        frame: citypvs::input::Frame::Metric {
-            origin: DVec2::ZERO,
-            crs: None,
-        },
-        source_hash: [0; 32],
-        report: InputReport::default(),
-    }
-}
+use super::common::{generated_buildings, metric_city};
 
 /// Every coordinate of the occluders and cells, as bits, with heights and
 /// ring structure.
@@ -93,7 +80,7 @@ proptest! {
         let settings = citypvs::Settings::default();
         let base = generated_buildings(120, seed, citypvs::generate::Style::Default);
         let first = ShapeMemo::with(HashMap::new());
-        let base_scene = prepare_with(city(base.clone()), &settings, &first).unwrap();
+        let base_scene = prepare_with(metric_city(base.clone()), &settings, &first).unwrap();
         prop_assert_eq!(first.stats().taken, 0);
         let earlier: HashMap<_, _> = first
             .into_results()
@@ -102,14 +89,14 @@ proptest! {
             .collect();
         // The same city again: everything is taken, nothing computed.
         let again = ShapeMemo::with(earlier.clone());
-        let same = prepare_with(city(base.clone()), &settings, &again).unwrap();
+        let same = prepare_with(metric_city(base.clone()), &settings, &again).unwrap();
         prop_assert_eq!(again.stats().computed, 0);
         prop_assert!(fingerprint(&same) == fingerprint(&base_scene));
 
         let edit = edited(base, kind, pick, dx, dy);
         let memo = ShapeMemo::with(earlier);
-        let cached = prepare_with(city(edit.clone()), &settings, &memo).unwrap();
-        let fresh = prepare(city(edit), &settings).unwrap();
+        let cached = prepare_with(metric_city(edit.clone()), &settings, &memo).unwrap();
+        let fresh = prepare(metric_city(edit), &settings).unwrap();
         prop_assert!(fingerprint(&cached) == fingerprint(&fresh), "edit {} of building {}", kind, pick);
         let stats = memo.stats();
         prop_assert!(stats.taken > 2 * stats.computed, "{:?}", stats);

@@ -347,16 +347,11 @@ proptest! {
 fn render_shows_the_dropped_gaps() {
     use citypvs::render::{Picture, render};
     let buildings = corridor(MIN_GAP * 0.9, 0.0);
-    let city = citypvs::input::City {
-        buildings,
-        frame: citypvs::input::Frame::Metric {
-            origin: DVec2::ZERO,
-            crs: None,
-        },
-        source_hash: [0; 32],
-        report: Default::default(),
-    };
-    let scene = prepare(city, &citypvs::Settings::default()).unwrap();
+    let scene = prepare(
+        super::common::metric_city(buildings),
+        &citypvs::Settings::default(),
+    )
+    .unwrap();
     assert!(!scene.cells.dropped.is_empty());
     let picture = Picture {
         scene: &scene,
