@@ -134,6 +134,9 @@ pub struct Sources {
     /// Per object of OLD.pvs, its index in the new city (by id), if it is
     /// there: how a copied cell's set is mapped.
     pub new_of_old: Vec<Option<u32>>,
+    /// Per cell of OLD.pvs, how many objects it sees (the size of a copied
+    /// cell's set, without decoding it again).
+    pub old_lens: Vec<u32>,
     pub solve: SolveStats,
     pub stats: RebakeStats,
 }
@@ -212,20 +215,26 @@ pub fn rebake(
             .or_insert(Some(i));
     }
     // One pass over the old file (each block decoded once, blocks in
-    // parallel): per old cell,
-    // whether it holds a member of X_old. Its set is read again only for
-    // the cells solved again (below) or when it is written (copied).
-    let saw_change: Vec<bool> = (0..old.cell_count().div_ceil(old.block_cells()))
-        .into_par_iter()
-        .map(|b| {
-            let sets = old.block_sets(b)?;
-            Ok(sets
-                .iter()
-                .map(|set| set.iter().any(|&o| changed_old[o as usize]))
-                .collect::<Vec<bool>>())
-        })
-        .collect::<Result<Vec<Vec<bool>>>>()?
-        .concat();
+    // parallel): per old cell, whether it holds a member of X_old, and its
+    // set's size. Its set is read again only for the cells solved again
+    // (below) or when it is written (copied) into a block coded anew.
+    let (saw_change, old_lens): (Vec<bool>, Vec<u32>) =
+        (0..old.cell_count().div_ceil(old.block_cells()))
+            .into_par_iter()
+            .map(|b| {
+                let sets = old.block_sets(b)?;
+                Ok(sets
+                    .iter()
+                    .map(|set| {
+                        let saw = set.iter().any(|&o| changed_old[o as usize]);
+                        (saw, set.len() as u32)
+                    })
+                    .collect::<Vec<(bool, u32)>>())
+            })
+            .collect::<Result<Vec<Vec<(bool, u32)>>>>()?
+            .concat()
+            .into_iter()
+            .unzip();
     // The near field of every sample of a cell lies in the cell's bounding
     // box grown by the near field and a pixel (the window is pixel-aligned).
     let reach = scene.settings.near_field + 2.0 * scene.settings.pixel;
@@ -322,6 +331,7 @@ pub fn rebake(
             .map(|s| s.expect("every cell is copied or solved"))
             .collect(),
         new_of_old,
+        old_lens,
         solve,
         stats,
     }))
@@ -453,6 +463,7 @@ pub fn rebake_all(
     let Sources {
         cells: sources,
         new_of_old,
+        old_lens,
         solve,
         mut stats,
     } = match rebake(scene, engine, old, progress)? {
@@ -494,7 +505,11 @@ pub fn rebake_all(
         };
         if same_blocks && in_place() {
             let b = range.start / block;
-            return Ok((Cow::Borrowed(old.coded_block(b)), old.block_set_lens(b)?));
+            let lens = old_lens[range.clone()]
+                .iter()
+                .map(|&n| n as usize)
+                .collect();
+            return Ok((Cow::Borrowed(old.coded_block(b)), lens));
         }
         let mut reader = OldSets::new(old, &new_of_old);
         let sets = sources[range.clone()]
