@@ -11,10 +11,12 @@
 //! made by this build (a payload of another build is refused as such).
 #![no_main]
 
+#[path = "seal.rs"]
+mod seal;
+
 use citypvs::geometry::memo::ShapeMemo;
 use citypvs::scale::geometry_cache::{CACHE_MAGIC, CACHE_VERSION, decode, encode};
 use libfuzzer_sys::fuzz_target;
-use sha2::{Digest, Sha256};
 
 fn exercise(bytes: &[u8]) {
     let Ok(shapes) = decode(bytes) else {
@@ -24,7 +26,10 @@ fn exercise(bytes: &[u8]) {
         for p in shape {
             for ring in std::iter::once(&p.exterior).chain(&p.holes) {
                 assert!(ring.len() >= 3, "a ring of {} points", ring.len());
-                assert!(ring.iter().all(|v| v.is_finite()), "a coordinate not finite");
+                assert!(
+                    ring.iter().all(|v| v.is_finite()),
+                    "a coordinate not finite"
+                );
             }
         }
     }
@@ -40,12 +45,5 @@ fn exercise(bytes: &[u8]) {
 
 fuzz_target!(|payload: &[u8]| {
     exercise(payload);
-    let mut sealed = Vec::with_capacity(56 + payload.len());
-    sealed.extend_from_slice(&CACHE_MAGIC);
-    sealed.extend_from_slice(&CACHE_VERSION.to_le_bytes());
-    sealed.extend_from_slice(&0u32.to_le_bytes());
-    sealed.extend_from_slice(&(payload.len() as u64).to_le_bytes());
-    sealed.extend_from_slice(&Sha256::digest(payload));
-    sealed.extend_from_slice(payload);
-    exercise(&sealed);
+    exercise(&seal::sealed(&CACHE_MAGIC, CACHE_VERSION, payload));
 });

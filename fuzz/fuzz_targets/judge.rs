@@ -29,10 +29,7 @@ fn scene(bytes: &[u8]) -> Option<(Vec<Building>, &[u8])> {
         let (b, tail) = rest.split_at_checked(7)?;
         rest = tail;
         let centre = DVec2::new(f64::from(b[0] as i8), f64::from(b[1] as i8));
-        let half = DVec2::new(
-            f64::from(b[2].max(2)) / 8.0,
-            f64::from(b[3].max(2)) / 8.0,
-        );
+        let half = DVec2::new(f64::from(b[2].max(2)) / 8.0, f64::from(b[3].max(2)) / 8.0);
         let angle = f64::from(b[4]) / 256.0 * std::f64::consts::PI;
         let (s, c) = angle.sin_cos();
         let corner = |x: f64, y: f64| centre + DVec2::new(x * c - y * s, x * s + y * c);

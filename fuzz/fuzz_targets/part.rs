@@ -13,9 +13,11 @@
 //! The seeds in `corpus/part` are payloads of small shards and checkpoints.
 #![no_main]
 
+#[path = "seal.rs"]
+mod seal;
+
 use citypvs::scale::part::{PART_MAGIC, PART_VERSION, Part, PartBuilder, encode_parts};
 use libfuzzer_sys::fuzz_target;
-use sha2::{Digest, Sha256};
 
 fn exercise(bytes: &[u8]) {
     let Ok(part) = Part::decode(bytes) else {
@@ -46,12 +48,5 @@ fn exercise(bytes: &[u8]) {
 
 fuzz_target!(|payload: &[u8]| {
     exercise(payload);
-    let mut sealed = Vec::with_capacity(56 + payload.len());
-    sealed.extend_from_slice(&PART_MAGIC);
-    sealed.extend_from_slice(&PART_VERSION.to_le_bytes());
-    sealed.extend_from_slice(&0u32.to_le_bytes());
-    sealed.extend_from_slice(&(payload.len() as u64).to_le_bytes());
-    sealed.extend_from_slice(&Sha256::digest(payload));
-    sealed.extend_from_slice(payload);
-    exercise(&sealed);
+    exercise(&seal::sealed(&PART_MAGIC, PART_VERSION, payload));
 });

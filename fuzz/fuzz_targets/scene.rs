@@ -37,10 +37,17 @@ fuzz_target!(|data: &[u8]| {
     let Ok(city) = read_city_bytes(bytes, "fuzz.geojson", &options) else {
         return;
     };
-    let (mut lo, mut hi) = (glam::DVec2::splat(f64::INFINITY), glam::DVec2::splat(f64::NEG_INFINITY));
+    let (mut lo, mut hi) = (
+        glam::DVec2::splat(f64::INFINITY),
+        glam::DVec2::splat(f64::NEG_INFINITY),
+    );
     for b in &city.buildings {
         for polygon in &b.footprint {
-            for &p in polygon.exterior.iter().chain(polygon.holes.iter().flatten()) {
+            for &p in polygon
+                .exterior
+                .iter()
+                .chain(polygon.holes.iter().flatten())
+            {
                 lo = lo.min(p);
                 hi = hi.max(p);
             }
