@@ -479,7 +479,8 @@ pub fn rebake_all(
     let mut tally = crate::bake::SetTally::default();
     // A block of OLD.pvs whose cells are all copied to the same places is
     // the block the new file would code when both files number the objects
-    // alike: its bytes are copied and only its sets' sizes decoded. The
+    // alike: its bytes are copied, with its sets' sizes from the first
+    // pass over the old file (`old_lens`), not decoded again. The
     // other blocks are coded a few at a time, in parallel (a block's bytes
     // depend only on its cells' sets), and added in order.
     let block = BLOCK_CELLS as usize;
