@@ -574,20 +574,27 @@ impl<'a> VisibilityEngine<'a> {
     ) -> Option<Vec<u32>> {
         let index = &self.index;
         marks.clear();
-        let mut stack = Vec::new();
-        for p in self.unit_points(unit) {
-            let dirs = ChangeDirections::at(p, changed)?;
-            stack.extend(index.root);
-            while let Some(n) = stack.pop() {
-                let node = &index.pyramid[n as usize];
-                if !dirs.may_hold(&node.rect) {
-                    continue;
-                }
-                stack.extend(&node.children);
-                for &o in &node.objects {
-                    if !marks.contains(o as usize) && dirs.holds(&index.objects[o as usize]) {
-                        marks.insert(o as usize);
-                    }
+        let dirs = self
+            .unit_points(unit)
+            .iter()
+            .map(|&p| ChangeDirections::at(p, changed))
+            .collect::<Option<Vec<_>>>()?;
+        // One walk for all the samples: a node is entered when it may hold
+        // an object for some sample, an object kept when it holds for some
+        // sample. Every ancestor of an object that holds for a sample may
+        // hold for that sample (`ChangeDirections::may_hold`), so this
+        // keeps exactly the objects a walk per sample keeps.
+        let mut stack: Vec<u32> = index.root.into_iter().collect();
+        while let Some(n) = stack.pop() {
+            let node = &index.pyramid[n as usize];
+            if !dirs.iter().any(|d| d.may_hold(&node.rect)) {
+                continue;
+            }
+            stack.extend(&node.children);
+            for &o in &node.objects {
+                let object = &index.objects[o as usize];
+                if dirs.iter().any(|d| d.holds(object)) {
+                    marks.insert(o as usize);
                 }
             }
         }
