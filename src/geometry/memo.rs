@@ -11,7 +11,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use sha2::{Digest, Sha256};
 
-use crate::model::MultiPolygon;
+use crate::model::{MultiPolygon, Polygon};
 
 /// The SHA-256 of a result's inputs.
 pub type ShapeKey = [u8; 32];
@@ -46,25 +46,34 @@ impl MemoKey {
         self
     }
 
-    /// Every polygon, ring and vertex of `shape`, with their counts.
+    /// Every polygon, ring and vertex of `shape`, with their counts
+    /// ([`hash_shape`]).
     pub fn shape(mut self, shape: &MultiPolygon) -> MemoKey {
-        let count = |h: &mut Sha256, n: usize| h.update((n as u64).to_le_bytes());
-        count(&mut self.0, shape.len());
-        for p in shape {
-            count(&mut self.0, p.holes.len());
-            for ring in std::iter::once(&p.exterior).chain(&p.holes) {
-                count(&mut self.0, ring.len());
-                for v in ring {
-                    self.0.update(v.x.to_bits().to_le_bytes());
-                    self.0.update(v.y.to_bits().to_le_bytes());
-                }
-            }
-        }
+        hash_shape(&mut self.0, shape);
         self
     }
 
     pub fn finish(self) -> ShapeKey {
         self.0.finalize().into()
+    }
+}
+
+/// Feed `shape` to `h`: its number of polygons, then per polygon its
+/// number of rings (holes + 1) and per ring its number of vertices and
+/// each vertex's x and y by their bits (u64 little-endian). The object
+/// fingerprints of the `.pvs` file (docs/FORMAT.md) hash shapes this way
+/// too.
+pub fn hash_shape(h: &mut Sha256, shape: &[Polygon]) {
+    h.update((shape.len() as u64).to_le_bytes());
+    for polygon in shape {
+        h.update((polygon.holes.len() as u64 + 1).to_le_bytes());
+        for ring in std::iter::once(&polygon.exterior).chain(&polygon.holes) {
+            h.update((ring.len() as u64).to_le_bytes());
+            for p in ring {
+                h.update(p.x.to_bits().to_le_bytes());
+                h.update(p.y.to_bits().to_le_bytes());
+            }
+        }
     }
 }
 
@@ -82,7 +91,7 @@ pub struct ShapeMemo {
 }
 
 /// How a memo fared: results taken from the earlier run, and computed.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct MemoStats {
     pub taken: u64,
     pub computed: u64,
@@ -101,10 +110,6 @@ impl ShapeMemo {
             earlier,
             ..ShapeMemo::default()
         }
-    }
-
-    pub fn is_on(&self) -> bool {
-        self.on
     }
 
     /// The result keyed by `key()`: the earlier run's if it has one, else
@@ -184,7 +189,6 @@ impl MemoResults {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::Polygon;
     use glam::DVec2;
 
     fn square(side: f64) -> MultiPolygon {

@@ -13,7 +13,7 @@ use sha2::{Digest, Sha256};
 
 use crate::error::{Error, Result};
 #[cfg(feature = "bake")]
-use crate::model::Polygon;
+use crate::geometry::memo::hash_shape;
 use crate::model::Rect;
 
 use super::mesh::{MAX_GRID_NUMBER, PER_METRE, unzigzag, zigzag};
@@ -47,21 +47,6 @@ impl ObjectPrint {
 
 /// Bytes of one entry in memory (the file codes it in about 16).
 pub const PRINT_BYTES: usize = 48;
-
-#[cfg(feature = "bake")]
-fn hash_polygons(h: &mut Sha256, shape: &[Polygon]) {
-    h.update((shape.len() as u64).to_le_bytes());
-    for polygon in shape {
-        h.update((polygon.holes.len() as u64 + 1).to_le_bytes());
-        for ring in std::iter::once(&polygon.exterior).chain(polygon.holes.iter()) {
-            h.update((ring.len() as u64).to_le_bytes());
-            for p in ring {
-                h.update(p.x.to_bits().to_le_bytes());
-                h.update(p.y.to_bits().to_le_bytes());
-            }
-        }
-    }
-}
 
 #[cfg(feature = "bake")]
 fn finish(h: Sha256) -> u64 {
@@ -100,7 +85,7 @@ pub fn object_prints(scene: &crate::prepare::Scene) -> Vec<ObjectPrint> {
         for polygon in &occ.shape {
             let mut h = Sha256::new();
             h.update(occ.height.to_bits().to_le_bytes());
-            hash_polygons(&mut h, std::slice::from_ref(polygon));
+            hash_shape(&mut h, std::slice::from_ref(polygon));
             list.push((occ.height, finish(h), Rect::of_points(&polygon.exterior)));
         }
     }
@@ -108,7 +93,7 @@ pub fn object_prints(scene: &crate::prepare::Scene) -> Vec<ObjectPrint> {
         let mut h = Sha256::new();
         h.update(b.height.to_bits().to_le_bytes());
         h.update([u8::from(b.occludes)]);
-        hash_polygons(&mut h, &b.footprint);
+        hash_shape(&mut h, &b.footprint);
         finish(h)
     };
     let rects: Vec<Rect> = buildings
