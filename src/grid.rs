@@ -91,9 +91,12 @@ impl UniformGrid {
     /// The key of the cell holding `p`, clamped into the grid (a point
     /// outside goes to the nearest border cell; NaN goes to column or row 0).
     pub fn key(&self, p: DVec2) -> Key {
+        // `as usize` truncates and saturates: for q >= 0 that is the floor,
+        // and below 0 (and for NaN) it gives 0, as the clamp would, with no
+        // call to `floor` (the default x86-64 target has no instruction).
         let q = (p - self.origin) / self.cell;
-        let x = (q.x.floor().max(0.0) as usize).min(self.nx - 1);
-        let y = (q.y.floor().max(0.0) as usize).min(self.ny - 1);
+        let x = (q.x as usize).min(self.nx - 1);
+        let y = (q.y as usize).min(self.ny - 1);
         (x, y)
     }
 
@@ -229,6 +232,17 @@ impl CellLists {
         CellLists { starts, items }
     }
 
+    /// The lists of items numbered in cell order: cell `k` holds the items
+    /// `starts[k]..starts[k + 1]` (`starts` has one entry more than the
+    /// grid has cells and never decreases).
+    pub fn numbered_by_cell(starts: Vec<u32>) -> Self {
+        let count = starts.last().copied().unwrap_or(0);
+        CellLists {
+            starts,
+            items: (0..count).collect(),
+        }
+    }
+
     /// How many entries lists of `count` items with key ranges `range`
     /// would hold, without building them.
     pub fn total(grid: &UniformGrid, count: usize, range: impl Fn(usize) -> (Key, Key)) -> u64 {
@@ -279,6 +293,25 @@ mod tests {
         assert_eq!(g.key(DVec2::new(15.0, 25.0)), (1, 1));
         assert_eq!(g.key(DVec2::new(-1e9, 1e9)), (0, 2));
         assert_eq!(g.key(DVec2::new(f64::NAN, 1e300)), (0, 2));
+        // The key is the floor of the cell position, clamped, for every
+        // kind of value (just below a cell's edge, below the origin,
+        // infinite, NaN).
+        let clamped_floor = |q: f64, n: usize| (q.floor().max(0.0) as usize).min(n - 1);
+        let values = [
+            -7.0, -1.0, -0.5, -1e-300, 0.0, 0.999999, 1.0, 2.5, 3.999, 4.0, 1e20,
+        ];
+        let odd = [f64::NAN, f64::INFINITY, f64::NEG_INFINITY];
+        for &qx in values.iter().chain(&odd) {
+            for &qy in values.iter().chain(&odd) {
+                let p = DVec2::new(10.0 + 5.0 * qx, 20.0 + 5.0 * qy);
+                let q = (p - DVec2::new(10.0, 20.0)) / 5.0;
+                assert_eq!(
+                    g.key(p),
+                    (clamped_floor(q.x, 4), clamped_floor(q.y, 3)),
+                    "{p}"
+                );
+            }
+        }
         assert_eq!(g.cell_of(DVec2::new(4.0, 31.0)), (-2, 2));
         let r = Rect {
             min: DVec2::new(12.0, 21.0),
@@ -325,5 +358,9 @@ mod tests {
         assert_eq!(CellLists::total(&g, 3, |i| ranges[i]), 7);
         assert_eq!(lists.entries(), 7);
         assert_eq!(lists.get(5), &[1, 2]);
+        // Items numbered in cell order: each cell's stretch of them.
+        let numbered = CellLists::numbered_by_cell(vec![0, 2, 2, 5]);
+        let got: Vec<Vec<u32>> = numbered.iter().map(|l| l.to_vec()).collect();
+        assert_eq!(got, vec![vec![0, 1], vec![], vec![2, 3, 4]]);
     }
 }

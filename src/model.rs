@@ -137,21 +137,31 @@ pub fn multipolygon_area(mp: &[Polygon]) -> f64 {
 
 /// Even-odd point-in-ring test (boundary points may go either way).
 pub fn point_in_ring(p: DVec2, ring: &[DVec2]) -> bool {
-    let n = ring.len();
     let mut inside = false;
+    ring_crossings(ring, p.y, |x| {
+        if p.x < x {
+            inside = !inside;
+        }
+    });
+    inside
+}
+
+/// Call `f` with the x of every crossing of the horizontal line at `y` with
+/// the sides of `ring` (a side crosses when exactly one of its ends lies
+/// above the line): `p` with `p.y == y` is inside the ring when an odd
+/// number of them lie beyond `p.x`. [`point_in_ring`] is this count, so a
+/// row of points sharing one `y` can take the crossings once, bit for bit.
+pub fn ring_crossings(ring: &[DVec2], y: f64, mut f: impl FnMut(f64)) {
+    let n = ring.len();
     let mut j = n.wrapping_sub(1);
     for i in 0..n {
         let a = ring[i];
         let b = ring[j];
-        if (a.y > p.y) != (b.y > p.y) {
-            let x = a.x + (p.y - a.y) * (b.x - a.x) / (b.y - a.y);
-            if p.x < x {
-                inside = !inside;
-            }
+        if (a.y > y) != (b.y > y) {
+            f(a.x + (y - a.y) * (b.x - a.x) / (b.y - a.y));
         }
         j = i;
     }
-    inside
 }
 
 /// True when `p` lies inside the polygon (inside the exterior, outside every hole).

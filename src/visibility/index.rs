@@ -8,8 +8,7 @@ use glam::DVec2;
 use crate::geometry::Occluder;
 use crate::grid::{CellLists, UniformGrid};
 use crate::model::{
-    Building, Rect, cut_points, distance_to_segment, piece_count, point_in_multipolygon,
-    polygon_edges,
+    Building, Rect, cut_points, distance_to_segment, piece_count, polygon_edges, ring_crossings,
 };
 
 /// One edge (piece) of a shrunk occluder level, with the solid on its
@@ -24,14 +23,6 @@ pub struct OccluderEdge {
     pub next: u32,
     /// Position of this piece along its ring (0 for the ring's first piece).
     pub ring_pos: u32,
-}
-
-/// An edge with its first point, while the index is built (its last
-/// point is the first point of the next edge along its ring).
-#[derive(Clone, Copy, Debug)]
-struct Piece {
-    a: DVec2,
-    edge: OccluderEdge,
 }
 
 /// The pixel grid shared by every cull map: pixel (i, j) covers
@@ -150,27 +141,16 @@ fn grid_step(bounds: &Rect, step: f64) -> f64 {
 impl SceneIndex {
     pub fn build(buildings: &[Building], occluders: &[Occluder], pixel: f64) -> SceneIndex {
         let grid = PixelGrid { pixel };
-        let pieces = collect_edges(occluders);
-        let buckets = bucket_grid(&pieces);
-        let pieces = in_bucket_order(pieces, &buckets);
-        let ring_points = RingPoints::build(&pieces);
-        // From here the pieces' points are read from `ring_points`, where
-        // each is kept once, and the edges are kept without them (half the
-        // size), before the lists below are built. (The edges are collected
-        // into the pieces' own allocation, which is then shrunk, so no
-        // second list is held.)
-        let mut edges: Vec<OccluderEdge> = pieces.into_iter().map(|p| p.edge).collect();
-        edges.shrink_to_fit();
+        // The edges' points are read from `ring_points`, where each is kept
+        // once, and the edges are kept without them.
+        // `bucket_starts` lists, per bucket, the edges whose first point
+        // lies in it: a stretch of the numbering.
+        let (buckets, edges, ring_points, mut bucket_starts) = lay_out_edges(occluders);
         let edge_range = |i: usize| {
             let (a, b) = ring_points.edge(i as u32);
             buckets.key_range(&Rect::of_points([&a, &b]))
         };
         let bucket_lists = CellLists::build(&buckets, edges.len(), edge_range);
-        let start_range = |i: usize| {
-            let k = buckets.key(ring_points.first(i as u32));
-            (k, k)
-        };
-        let mut bucket_starts = CellLists::build(&buckets, edges.len(), start_range);
         // The longest stride an edge starts chains of: 4 (class 0), 2 (1)
         // or 1 (2). A stable sort keeps the order within a class.
         let class = |e: &u32| match edges[*e as usize].ring_pos {
@@ -459,15 +439,9 @@ impl BucketNodes {
 
 /// The edge bucket grid: [`BUCKET_SIZE`] squares (grown by [`grid_step`]
 /// over a very wide city) from the multiple of the square size at or below
-/// the lower left corner of the edges' bounding box, enough of them that
-/// the box's far sides lie inside the grid.
-fn bucket_grid(edges: &[Piece]) -> UniformGrid {
-    // Every edge's last point is the first point of the next edge along its
-    // ring, so the first points alone have the bounds of all the points.
-    let mut bounds = Rect::EMPTY;
-    for e in edges {
-        bounds.include(e.a);
-    }
+/// the lower left corner of `bounds` (the edges' bounding box), enough of
+/// them that the box's far sides lie inside the grid.
+fn bucket_grid(mut bounds: Rect) -> UniformGrid {
     if bounds.is_empty() {
         bounds = Rect {
             min: DVec2::ZERO,
@@ -510,33 +484,6 @@ pub struct RingPoints {
 }
 
 impl RingPoints {
-    fn build(edges: &[Piece]) -> RingPoints {
-        // One point per piece and MAX_CHAIN_PIECES more per ring: counted
-        // first, so the list is allocated once at its size.
-        let rings = edges.iter().filter(|p| p.edge.ring_pos == 0).count();
-        let mut points = Vec::with_capacity(edges.len() + rings * MAX_CHAIN_PIECES);
-        let mut start = vec![0u32; edges.len()];
-        for (head, piece) in edges.iter().enumerate() {
-            if piece.edge.ring_pos != 0 {
-                continue;
-            }
-            let mut cur = head;
-            loop {
-                start[cur] = points.len() as u32;
-                points.push(edges[cur].a);
-                cur = edges[cur].edge.next as usize;
-                if cur == head {
-                    break;
-                }
-            }
-            for _ in 0..MAX_CHAIN_PIECES {
-                points.push(edges[cur].a);
-                cur = edges[cur].edge.next as usize;
-            }
-        }
-        RingPoints { points, start }
-    }
-
     /// The first and last point of edge `e`.
     #[inline]
     pub fn edge(&self, e: u32) -> (DVec2, DVec2) {
@@ -560,96 +507,163 @@ impl RingPoints {
     }
 }
 
-fn collect_edges(occluders: &[Occluder]) -> Vec<Piece> {
-    // Every ring of every occluder, with the occluder's height.
-    let rings = || {
-        occluders.iter().flat_map(|occ| {
-            occ.shape.iter().flat_map(move |polygon| {
-                std::iter::once(&polygon.exterior)
-                    .chain(polygon.holes.iter())
-                    .map(move |ring| (occ.height, ring))
-            })
+/// Every ring of every occluder with the occluder's height, in the
+/// occluders' order: the order the edges are numbered from before they are
+/// put in bucket order.
+fn occluder_rings(occluders: &[Occluder]) -> impl Iterator<Item = (f64, &[DVec2])> + '_ {
+    occluders.iter().flat_map(|occ| {
+        occ.shape.iter().flat_map(move |polygon| {
+            std::iter::once(&polygon.exterior)
+                .chain(polygon.holes.iter())
+                .map(move |ring| (occ.height, ring.as_slice()))
         })
-    };
-    // Counted first, so the list is allocated once at its size (a list
-    // grown by doubling holds up to twice its edges at its peak).
-    let count: usize = rings()
-        .map(|(_, ring)| {
-            (0..ring.len())
-                .map(|i| piece_count(ring[i], ring[(i + 1) % ring.len()], MAX_EDGE_PIECE))
-                .sum::<usize>()
-        })
-        .sum();
-    let mut edges = Vec::with_capacity(count);
-    for (height, ring) in rings() {
-        let start = edges.len() as u32;
-        let mut ring_pos = 0;
-        for (i, &a) in ring.iter().enumerate() {
-            let b = ring[(i + 1) % ring.len()];
-            let pieces = piece_count(a, b, MAX_EDGE_PIECE);
-            let mut from = a;
-            for q in cut_points(a, b, pieces).skip(1) {
-                let p = std::mem::replace(&mut from, q);
-                let next = edges.len() as u32 + 1;
-                edges.push(Piece {
-                    a: p,
-                    edge: OccluderEdge {
-                        height,
-                        next,
-                        ring_pos,
-                    },
-                });
-                ring_pos += 1;
-            }
-        }
-        // Close the ring: the last piece continues with the first.
-        if let Some(last) = edges.last_mut() {
-            last.edge.next = start;
-        }
-    }
-    edges
+    })
 }
 
-/// The edges renumbered by the bucket holding their first point (a stable
-/// sort: within a bucket they keep their order, and the pieces of a ring
-/// mostly follow each other), `next` following the renumbering. The sweep
-/// then reads each bucket's edges and their chains from one stretch of
-/// memory. Nothing else depends on the numbering: the chains and their
-/// order within a bucket are the same, and the near-field map draws the
-/// edges in an order fixed by their coordinates.
+/// The first points of a ring's pieces in ring order: each side cut into
+/// [`piece_count`] pieces of at most [`MAX_EDGE_PIECE`] (a piece's last
+/// point is the next piece's first point, the ring's last piece ending at
+/// the first).
+fn piece_starts(ring: &[DVec2]) -> impl Iterator<Item = DVec2> + '_ {
+    (0..ring.len()).flat_map(move |i| {
+        let (a, b) = (ring[i], ring[(i + 1) % ring.len()]);
+        let pieces = piece_count(a, b, MAX_EDGE_PIECE);
+        cut_points(a, b, pieces).take(pieces)
+    })
+}
+
+/// The edges (pieces) of every occluder ring, numbered by the bucket that
+/// holds their first point and, within a bucket, in the occluders' order
+/// (a counting sort: each bucket's pieces keep the order in which the rings
+/// give them, and the pieces of a ring mostly follow each other), with
+/// `next` following the numbering, and their points ([`RingPoints`]): the
+/// rings in the order of their first pieces' numbers. The sweep then reads
+/// each bucket's edges and their chains from one stretch of memory. Nothing
+/// else depends on the numbering: the chains and their order within a
+/// bucket are the same, and the near-field map draws the edges in an order
+/// fixed by their coordinates.
 ///
-/// The edges are moved in place (no second copy of the list is held).
-fn in_bucket_order(mut edges: Vec<Piece>, buckets: &UniformGrid) -> Vec<Piece> {
-    let mut keyed: Vec<(u32, u32)> = (0..edges.len())
-        .map(|e| (buckets.index(buckets.key(edges[e].a)) as u32, e as u32))
-        .collect();
-    keyed.sort_unstable();
-    let mut new_id = vec![0u32; edges.len()];
-    for (n, &(_, e)) in keyed.iter().enumerate() {
-        new_id[e as usize] = n as u32;
-    }
-    drop(keyed);
-    for piece in &mut edges {
-        piece.edge.next = new_id[piece.edge.next as usize];
-    }
-    // Follow each cycle of the permutation: every swap puts one edge (and
-    // its destination) in its final place.
-    for start in 0..edges.len() {
-        loop {
-            let target = new_id[start] as usize;
-            if target == start {
-                break;
-            }
-            edges.swap(start, target);
-            new_id.swap(start, target);
+/// The pieces are cut from the rings three times (for the bounds, the
+/// counts and the placing) instead of being held in a list in the
+/// occluders' order and then moved: each edge is written once, in its
+/// place, and no second list of them is ever held.
+fn lay_out_edges(
+    occluders: &[Occluder],
+) -> (UniformGrid, Vec<OccluderEdge>, RingPoints, CellLists) {
+    // Every piece's last point is the first point of the next piece along
+    // its ring, so the first points alone have the bounds of all the points.
+    let mut bounds = Rect::EMPTY;
+    for (_, ring) in occluder_rings(occluders) {
+        for a in piece_starts(ring) {
+            bounds.include(a);
         }
     }
-    edges
+    let buckets = bucket_grid(bounds);
+    let bucket = |a: DVec2| buckets.index(buckets.key(a));
+    // Pieces per bucket; per ring, its pieces and its first piece's bucket.
+    let mut fill = vec![0u32; buckets.len() + 1];
+    let mut rings: Vec<(u32, u32)> = Vec::new();
+    let mut rings_from = vec![0u32; buckets.len() + 1];
+    for (_, ring) in occluder_rings(occluders) {
+        let mut pieces = 0u32;
+        let mut head = 0;
+        for a in piece_starts(ring) {
+            let b = bucket(a);
+            if pieces == 0 {
+                head = b;
+            }
+            fill[b + 1] += 1;
+            pieces += 1;
+        }
+        if pieces > 0 {
+            rings.push((pieces, head as u32));
+            rings_from[head + 1] += 1;
+        }
+    }
+    for b in 0..buckets.len() {
+        fill[b + 1] += fill[b];
+        rings_from[b + 1] += rings_from[b];
+    }
+    let count = fill[buckets.len()] as usize;
+    // Where each ring's points go: rings by their first piece's bucket,
+    // in the occluders' order within a bucket (the order of their first
+    // pieces' numbers), each ring's points followed by its first
+    // MAX_CHAIN_PIECES points again.
+    let mut ring_order = vec![0u32; rings.len()];
+    for (r, &(_, head)) in rings.iter().enumerate() {
+        let slot = &mut rings_from[head as usize];
+        ring_order[*slot as usize] = r as u32;
+        *slot += 1;
+    }
+    drop(rings_from);
+    let mut points_at = vec![0usize; rings.len()];
+    let mut total = 0;
+    for &r in &ring_order {
+        points_at[r as usize] = total;
+        total += rings[r as usize].0 as usize + MAX_CHAIN_PIECES;
+    }
+    drop(ring_order);
+    let mut points = vec![DVec2::ZERO; total];
+    let mut start = vec![0u32; count];
+    let unset = OccluderEdge {
+        height: 0.0,
+        next: 0,
+        ring_pos: 0,
+    };
+    let mut edges = vec![unset; count];
+    let mut r = 0;
+    for (height, ring) in occluder_rings(occluders) {
+        let mut first = None;
+        let mut previous: Option<usize> = None;
+        let mut ring_pos = 0u32;
+        for a in piece_starts(ring) {
+            let slot = &mut fill[bucket(a)];
+            let e = *slot as usize;
+            *slot += 1;
+            let at = points_at[r] + ring_pos as usize;
+            points[at] = a;
+            start[e] = at as u32;
+            edges[e] = OccluderEdge {
+                height,
+                next: 0,
+                ring_pos,
+            };
+            if let Some(p) = previous {
+                edges[p].next = e as u32;
+            }
+            first.get_or_insert(e);
+            previous = Some(e);
+            ring_pos += 1;
+        }
+        // Close the ring: the last piece continues with the first, and
+        // the points go on round the ring for chains starting near its end.
+        if let (Some(first), Some(last)) = (first, previous) {
+            edges[last].next = first as u32;
+            let (at, pieces) = (points_at[r], ring_pos as usize);
+            for k in 0..MAX_CHAIN_PIECES {
+                points[at + pieces + k] = points[at + k % pieces];
+            }
+            r += 1;
+        }
+    }
+    // Each bucket's pieces now end where `fill` stands: the lists of the
+    // edges starting in each bucket are the stretches between.
+    fill.pop();
+    fill.insert(0, 0);
+    let starts = CellLists::numbered_by_cell(fill);
+    (buckets, edges, RingPoints { points, start }, starts)
 }
 
 /// Every pixel whose centre lies inside the footprint or within half a
 /// pixel diagonal of its boundary: a superset of the pixels the footprint
 /// overlaps (conservative occludee rasterisation).
+///
+/// Row by row: the row's crossings with every ring are found once (the
+/// very numbers [`crate::model::point_in_ring`] finds for each of the row's centres, so
+/// "inside" is decided bit for bit as it would be), and only the sides that
+/// reach within twice the reach of the row's centre line are measured
+/// (a side farther away in y is farther than twice the reach from every
+/// centre of the row, far beyond any rounding of the distance).
 fn rasterise_object(building: &Building, grid: PixelGrid) -> ObjectRaster {
     let mut rect = Rect::EMPTY;
     for p in &building.footprint {
@@ -660,18 +674,46 @@ fn rasterise_object(building: &Building, grid: PixelGrid) -> ObjectRaster {
     let reach = grid.pixel * std::f64::consts::FRAC_1_SQRT_2 * (1.0 + 1e-9);
     let (i_lo, j_lo) = grid.pixel_of(rect.min - DVec2::splat(reach));
     let (i_hi, j_hi) = grid.pixel_of(rect.max + DVec2::splat(reach));
+    let sides: Vec<(DVec2, DVec2)> = building.footprint.iter().flat_map(polygon_edges).collect();
+    let mut near: Vec<(DVec2, DVec2)> = Vec::new();
+    // Per polygon, the crossings of its exterior, then of each hole.
+    let mut crossings: Vec<Vec<Vec<f64>>> = building
+        .footprint
+        .iter()
+        .map(|p| vec![Vec::new(); 1 + p.holes.len()])
+        .collect();
+    let odd_beyond = |xs: &[f64], x: f64| xs.iter().filter(|&&c| x < c).count() % 2 == 1;
     let mut spans = Vec::new();
     for j in j_lo..=j_hi {
+        let y = grid.centre(i_lo, j).y;
+        near.clear();
+        near.extend(
+            sides.iter().copied().filter(|(a, b)| {
+                a.y.min(b.y) - 2.0 * reach <= y && y <= a.y.max(b.y) + 2.0 * reach
+            }),
+        );
+        for (polygon, rings) in building.footprint.iter().zip(&mut crossings) {
+            for (ring, xs) in std::iter::once(&polygon.exterior)
+                .chain(&polygon.holes)
+                .zip(rings.iter_mut())
+            {
+                xs.clear();
+                ring_crossings(ring, y, |x| xs.push(x));
+            }
+        }
+        let inside_footprint = |x: f64| {
+            crossings.iter().any(|rings| {
+                odd_beyond(&rings[0], x) && !rings[1..].iter().any(|xs| odd_beyond(xs, x))
+            })
+        };
         let mut run: Option<i32> = None;
         for i in i_lo..=i_hi + 1 {
             let inside = i <= i_hi && {
                 let c = grid.centre(i, j);
-                point_in_multipolygon(c, &building.footprint)
-                    || building
-                        .footprint
+                inside_footprint(c.x)
+                    || near
                         .iter()
-                        .flat_map(polygon_edges)
-                        .any(|(a, b)| distance_to_segment(c, a, b) <= reach)
+                        .any(|&(a, b)| distance_to_segment(c, a, b) <= reach)
             };
             match (inside, run) {
                 (true, None) => run = Some(i),
@@ -841,12 +883,78 @@ mod tests {
             .collect()
     }
 
+    proptest::proptest! {
+        /// The row-by-row rasteriser marks exactly the pixels whose centre
+        /// lies in the footprint or within the reach of a side of it, each
+        /// decided alone: random star-shaped polygons (so they need not be
+        /// convex), some with a hole, off the grid's origin.
+        #[test]
+        fn an_object_s_spans_are_the_pixels_in_or_near_its_footprint(
+            radii in proptest::collection::vec(2.0f64..30.0, 3..12),
+            hole in proptest::option::of(0.2f64..0.6),
+            second in proptest::bool::ANY,
+            centre in (-500.0f64..500.0, -500.0f64..500.0),
+            pixel in 0.5f64..2.5,
+        ) {
+            let star = |c: DVec2, scale: f64, clockwise: bool| -> Vec<DVec2> {
+                let n = radii.len();
+                (0..n)
+                    .map(|k| {
+                        let k = if clockwise { n - 1 - k } else { k };
+                        let turn = std::f64::consts::TAU * k as f64 / n as f64;
+                        c + DVec2::new(turn.cos(), turn.sin()) * radii[k] * scale
+                    })
+                    .collect()
+            };
+            let c = DVec2::new(centre.0, centre.1);
+            let mut footprint = vec![Polygon {
+                exterior: star(c, 1.0, false),
+                holes: hole.map(|h| star(c, h, true)).into_iter().collect(),
+            }];
+            if second {
+                footprint.push(Polygon {
+                    exterior: star(c + DVec2::new(45.0, 7.0), 0.5, false),
+                    holes: vec![],
+                });
+            }
+            let building = Building {
+                id: "b".into(),
+                footprint,
+                height: 10.0,
+                occludes: true,
+            };
+            let grid = PixelGrid { pixel };
+            let raster = rasterise_object(&building, grid);
+            let reach = pixel * std::f64::consts::FRAC_1_SQRT_2 * (1.0 + 1e-9);
+            let marked = |i: i32, j: i32| {
+                let c = grid.centre(i, j);
+                crate::model::point_in_multipolygon(c, &building.footprint)
+                    || building
+                        .footprint
+                        .iter()
+                        .flat_map(polygon_edges)
+                        .any(|(a, b)| distance_to_segment(c, a, b) <= reach)
+            };
+            let (lo, _) = grid.pixel_of(raster.rect.min - DVec2::splat(2.0 * reach));
+            let (hi, _) = grid.pixel_of(raster.rect.max + DVec2::splat(2.0 * reach));
+            let (_, j_lo) = grid.pixel_of(raster.rect.min - DVec2::splat(2.0 * reach));
+            let (_, j_hi) = grid.pixel_of(raster.rect.max + DVec2::splat(2.0 * reach));
+            for j in j_lo..=j_hi {
+                for i in lo..=hi {
+                    let in_span = raster
+                        .spans
+                        .iter()
+                        .any(|s| s.j == j && s.i0 <= i && i < s.i1);
+                    proptest::prop_assert_eq!(in_span, marked(i, j), "pixel ({}, {})", i, j);
+                }
+            }
+        }
+    }
+
     #[test]
     fn the_index_reads_each_edge_s_points_from_its_ring() {
         let occluders = occluders();
         let index = SceneIndex::build(&[], &occluders, 1.0);
-        let pieces = collect_edges(&occluders);
-        assert_eq!(index.edges.len(), pieces.len());
         // Every piece is read back exactly, with its height, once.
         let key = |a: DVec2, b: DVec2, h: f64| [a.x, a.y, b.x, b.y, h].map(f64::to_bits);
         // Each piece's own two points, cut from the occluders' rings here.
@@ -865,7 +973,7 @@ mod tests {
                 }
             }
         }
-        assert_eq!(want.len(), pieces.len());
+        assert_eq!(want.len(), index.edges.len());
         let mut got: Vec<_> = (0..index.edges.len() as u32)
             .map(|e| {
                 let (a, b) = index.edge_points(e);
@@ -876,6 +984,23 @@ mod tests {
         want.sort_unstable();
         got.sort_unstable();
         assert_eq!(got, want);
+        // The edges are numbered by the bucket of their first point, and
+        // each bucket's list of starts holds exactly its edges.
+        let bucket_of = |e: u32| {
+            let buckets = &index.buckets;
+            buckets.index(buckets.key(index.edge_first_point(e)))
+        };
+        let numbered: Vec<usize> = (0..index.edges.len() as u32).map(bucket_of).collect();
+        assert!(numbered.is_sorted());
+        assert!(numbered.windows(2).any(|w| w[0] != w[1]));
+        for b in 0..index.buckets.len() {
+            let mut listed = index.bucket_starts(b).to_vec();
+            listed.sort_unstable();
+            let want: Vec<u32> = (0..index.edges.len() as u32)
+                .filter(|&e| bucket_of(e) == b)
+                .collect();
+            assert_eq!(listed, want);
+        }
         // An edge ends exactly where the next one along its ring starts,
         // and a chain's slice is the edges' points in ring order.
         for e in 0..index.edges.len() as u32 {
