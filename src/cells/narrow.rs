@@ -216,10 +216,20 @@ pub(super) struct Grid {
     /// active bucket: most segments lie far from every short edge, and one
     /// or two lookups here tell so.
     coarse: HashSet<(i64, i64), KeyHasher>,
-    buckets: HashMap<(i64, i64), Vec<usize>, KeyHasher>,
+    /// Per bucket with something filed under it, the last entry filed
+    /// there in `filed`.
+    buckets: HashMap<(i64, i64), usize, KeyHasher>,
+    /// Every (segment, bucket) filing as a list per bucket: the segment and
+    /// the bucket's entry filed before it ([`NO_ENTRY`] for the first). One
+    /// flat list instead of a list per bucket, so that a city's grid is two
+    /// allocations, not one per bucket.
+    filed: Vec<(usize, usize)>,
     /// The keys of the segment being filed (kept to save an allocation).
     scratch: Vec<(i64, i64)>,
 }
+
+/// The end of a bucket's list of entries in [`Grid`].
+const NO_ENTRY: usize = usize::MAX;
 
 /// Buckets per side of a [`Grid`]'s coarse block, as a power of two.
 const COARSE_SHIFT: u32 = 4;
@@ -242,10 +252,17 @@ impl Grid {
             active: HashSet::default(),
             coarse: HashSet::default(),
             buckets: HashMap::default(),
+            filed: Vec::new(),
             scratch: Vec::new(),
         };
+        let mut last = None;
         for p in around {
             let (kx, ky) = grid.key(p);
+            // Points come along lines, often several to a bucket: a bucket
+            // repeated from the point before adds nothing.
+            if last.replace((kx, ky)) == Some((kx, ky)) {
+                continue;
+            }
             for dx in -2..=2 {
                 for dy in -2..=2 {
                     grid.active.insert((kx + dx, ky + dy));
@@ -300,7 +317,9 @@ impl Grid {
         keys.sort_unstable();
         keys.dedup();
         for &k in &keys {
-            self.buckets.entry(k).or_default().push(i);
+            let last = self.buckets.entry(k).or_insert(NO_ENTRY);
+            self.filed.push((i, *last));
+            *last = self.filed.len() - 1;
         }
         self.scratch = keys;
     }
@@ -333,7 +352,13 @@ impl Grid {
         if !self.active.contains(&k) {
             return None;
         }
-        let mut v: Vec<usize> = self.buckets.get(&k).cloned().unwrap_or_default();
+        let mut v: Vec<usize> = Vec::new();
+        let mut entry = self.buckets.get(&k).copied().unwrap_or(NO_ENTRY);
+        while entry != NO_ENTRY {
+            let (segment, before) = self.filed[entry];
+            v.push(segment);
+            entry = before;
+        }
         v.sort_unstable();
         v.dedup();
         Some(v)
@@ -793,6 +818,54 @@ mod tests {
         let h = convex_hull(&mut pts);
         assert_eq!(h.len(), 4);
         assert!(ring_signed_area2(&h) > 0.0);
+    }
+
+    proptest::proptest! {
+        /// The grid's contract: a point in a bucket within two buckets of
+        /// an `around` point gets every segment within 0.75 buckets of it,
+        /// each once, in ascending order, and only segments filed; a point
+        /// elsewhere gets `None`. Random segments, filed in an order that
+        /// revisits buckets.
+        #[test]
+        fn a_grid_finds_every_segment_near_an_active_point(
+            around in proptest::collection::vec((-40.0f64..40.0, -40.0f64..40.0), 1..12),
+            segments in proptest::collection::vec(
+                ((-50.0f64..50.0, -50.0f64..50.0), (-12.0f64..12.0, -12.0f64..12.0)),
+                0..40,
+            ),
+            probes in proptest::collection::vec((-50.0f64..50.0, -50.0f64..50.0), 1..40),
+            size in 1.0f64..6.0,
+        ) {
+            let v = |(x, y): (f64, f64)| DVec2::new(x, y);
+            let around: Vec<DVec2> = around.into_iter().map(v).collect();
+            let segments: Vec<(DVec2, DVec2)> =
+                segments.into_iter().map(|(a, d)| (v(a), v(a) + v(d))).collect();
+            let mut grid = Grid::new(size, around.iter().copied());
+            for (i, &(a, b)) in segments.iter().enumerate() {
+                grid.insert(i, a, b);
+            }
+            let bucket = |p: DVec2| ((p.x / size).floor() as i64, (p.y / size).floor() as i64);
+            for p in probes.into_iter().map(v) {
+                let k = bucket(p);
+                let active = around.iter().any(|&q| {
+                    let c = bucket(q);
+                    (c.0 - k.0).abs() <= 2 && (c.1 - k.1).abs() <= 2
+                });
+                match grid.near(p) {
+                    None => proptest::prop_assert!(!active),
+                    Some(found) => {
+                        proptest::prop_assert!(active);
+                        proptest::prop_assert!(found.windows(2).all(|w| w[0] < w[1]));
+                        proptest::prop_assert!(found.iter().all(|&i| i < segments.len()));
+                        for (i, &(a, b)) in segments.iter().enumerate() {
+                            if crate::model::distance_to_segment(p, a, b) <= 0.75 * size {
+                                proptest::prop_assert!(found.contains(&i), "segment {}", i);
+                            }
+                        }
+                    }
+                }
+            }
+        }
     }
 
     #[test]
