@@ -232,17 +232,6 @@ impl CellLists {
         CellLists { starts, items }
     }
 
-    /// The lists of items numbered in cell order: cell `k` holds the items
-    /// `starts[k]..starts[k + 1]` (`starts` has one entry more than the
-    /// grid has cells and never decreases).
-    pub fn numbered_by_cell(starts: Vec<u32>) -> Self {
-        let count = starts.last().copied().unwrap_or(0);
-        CellLists {
-            starts,
-            items: (0..count).collect(),
-        }
-    }
-
     /// How many entries lists of `count` items with key ranges `range`
     /// would hold, without building them.
     pub fn total(grid: &UniformGrid, count: usize, range: impl Fn(usize) -> (Key, Key)) -> u64 {
@@ -260,11 +249,6 @@ impl CellLists {
     /// The items of cell `k`.
     pub fn get(&self, k: usize) -> &[u32] {
         &self.items[self.starts[k] as usize..self.starts[k + 1] as usize]
-    }
-
-    /// The items of cell `k`, to reorder.
-    pub fn get_mut(&mut self, k: usize) -> &mut [u32] {
-        &mut self.items[self.starts[k] as usize..self.starts[k + 1] as usize]
     }
 
     /// Every cell's list, by cell index.
@@ -358,9 +342,5 @@ mod tests {
         assert_eq!(CellLists::total(&g, 3, |i| ranges[i]), 7);
         assert_eq!(lists.entries(), 7);
         assert_eq!(lists.get(5), &[1, 2]);
-        // Items numbered in cell order: each cell's stretch of them.
-        let numbered = CellLists::numbered_by_cell(vec![0, 2, 2, 5]);
-        let got: Vec<Vec<u32>> = numbered.iter().map(|l| l.to_vec()).collect();
-        assert_eq!(got, vec![vec![0, 1], vec![], vec![2, 3, 4]]);
     }
 }

@@ -89,14 +89,14 @@ pub struct SceneIndex {
     buckets: UniformGrid,
     /// Per bucket, the edges whose bounding box overlaps it.
     bucket_lists: CellLists,
-    /// Per bucket, the edges whose first point `a` lies in it (clamped to
-    /// the grid): the horizon's chains start there and only there. Each
-    /// list holds first the edges that start chains of stride 4, then those
-    /// of stride 2, then the rest.
-    bucket_starts: CellLists,
-    /// Per bucket, the lengths of the prefixes of its list for strides 4
-    /// and 2.
-    stride_prefixes: Vec<[u32; 2]>,
+    /// The edges whose first point `a` lies in each bucket (clamped to the
+    /// grid), where the horizon's chains start and only there, are a
+    /// stretch of the numbering: first those that start chains of stride 4
+    /// (position on their ring a multiple of 4), then of stride 2, then
+    /// the rest. Per bucket `b` and class `k` (0, 1, 2), the stretch of
+    /// that class starts at entry `3 b + k`; the last entry is the number
+    /// of edges.
+    class_starts: Vec<u32>,
     /// Greatest occluder height among the edges starting in each bucket (0
     /// when none).
     bucket_heights: Vec<f64>,
@@ -143,45 +143,27 @@ impl SceneIndex {
         let grid = PixelGrid { pixel };
         // The edges' points are read from `ring_points`, where each is kept
         // once, and the edges are kept without them.
-        // `bucket_starts` lists, per bucket, the edges whose first point
-        // lies in it: a stretch of the numbering.
-        let (buckets, edges, ring_points, mut bucket_starts) = lay_out_edges(occluders);
+        let (buckets, edges, ring_points, class_starts) = lay_out_edges(occluders);
+        let starts_in = |b: usize| class_starts[3 * b]..class_starts[3 * b + 3];
         let edge_range = |i: usize| {
             let (a, b) = ring_points.edge(i as u32);
             buckets.key_range(&Rect::of_points([&a, &b]))
         };
         let bucket_lists = CellLists::build(&buckets, edges.len(), edge_range);
-        // The longest stride an edge starts chains of: 4 (class 0), 2 (1)
-        // or 1 (2). A stable sort keeps the order within a class.
-        let class = |e: &u32| match edges[*e as usize].ring_pos {
-            p if p.is_multiple_of(4) => 0,
-            p if p.is_multiple_of(2) => 1,
-            _ => 2,
-        };
-        let stride_prefixes: Vec<[u32; 2]> = (0..buckets.len())
+        let bucket_heights: Vec<f64> = (0..buckets.len())
             .map(|b| {
-                let list = bucket_starts.get_mut(b);
-                list.sort_by_key(class);
-                let prefix = |c| list.partition_point(|e| class(e) <= c) as u32;
-                [prefix(0), prefix(1)]
-            })
-            .collect();
-        let bucket_heights: Vec<f64> = bucket_starts
-            .iter()
-            .map(|b| {
-                b.iter()
-                    .map(|&e| edges[e as usize].height)
+                starts_in(b)
+                    .map(|e| edges[e as usize].height)
                     .fold(0.0, f64::max)
             })
             .collect();
-        let bucket_chain_rects: Vec<[Rect; 4]> = bucket_starts
-            .iter()
+        let bucket_chain_rects: Vec<[Rect; 4]> = (0..buckets.len())
             .map(|b| {
                 let mut rects = [Rect::EMPTY; 4];
                 let mut all = Rect::EMPTY;
                 for (level, rect) in rects.iter_mut().take(3).enumerate() {
                     let stride = 1u32 << level;
-                    for &e in b {
+                    for e in starts_in(b) {
                         if !edges[e as usize].ring_pos.is_multiple_of(stride) {
                             continue;
                         }
@@ -219,8 +201,7 @@ impl SceneIndex {
             ring_points,
             buckets,
             bucket_lists,
-            bucket_starts,
-            stride_prefixes,
+            class_starts,
             bucket_heights,
             bucket_chain_rects,
             bucket_nodes,
@@ -255,21 +236,21 @@ impl SceneIndex {
     }
 
     /// The edges whose first point lies in bucket `b` (each edge starts in
-    /// exactly one bucket).
-    pub fn bucket_starts(&self, b: usize) -> &[u32] {
-        self.bucket_starts.get(b)
+    /// exactly one bucket): those of stride 4, then of stride 2, then the
+    /// rest, each class in the occluders' order.
+    pub fn bucket_starts(&self, b: usize) -> std::ops::Range<u32> {
+        self.class_starts[3 * b]..self.class_starts[3 * b + 3]
     }
 
     /// The edges of [`SceneIndex::bucket_starts`] whose position on their
-    /// ring is a multiple of `stride` (1, 2 or 4): a prefix of that list.
-    pub fn bucket_starts_strided(&self, b: usize, stride: u32) -> &[u32] {
-        let starts = self.bucket_starts.get(b);
-        let [four, two] = self.stride_prefixes[b];
-        match stride {
-            4 => &starts[..four as usize],
-            2 => &starts[..two as usize],
-            _ => starts,
-        }
+    /// ring is a multiple of `stride` (1, 2 or 4): a first stretch of them.
+    pub fn bucket_starts_strided(&self, b: usize, stride: u32) -> std::ops::Range<u32> {
+        let end = match stride {
+            4 => 3 * b + 1,
+            2 => 3 * b + 2,
+            _ => 3 * b + 3,
+        };
+        self.class_starts[3 * b]..self.class_starts[end]
     }
 
     /// The greatest occluder height among the edges starting in bucket `b`.
@@ -533,23 +514,24 @@ fn piece_starts(ring: &[DVec2]) -> impl Iterator<Item = DVec2> + '_ {
 }
 
 /// The edges (pieces) of every occluder ring, numbered by the bucket that
-/// holds their first point and, within a bucket, in the occluders' order
-/// (a counting sort: each bucket's pieces keep the order in which the rings
-/// give them, and the pieces of a ring mostly follow each other), with
-/// `next` following the numbering, and their points ([`RingPoints`]): the
-/// rings in the order of their first pieces' numbers. The sweep then reads
-/// each bucket's edges and their chains from one stretch of memory. Nothing
-/// else depends on the numbering: the chains and their order within a
-/// bucket are the same, and the near-field map draws the edges in an order
-/// fixed by their coordinates.
+/// holds their first point, within a bucket by the longest stride a chain
+/// may start at them with ([`stride_class`]), and within that in the
+/// occluders' order (a counting sort: the pieces keep the order in which
+/// the rings give them, and the pieces of a ring mostly follow each
+/// other), with `next` following the numbering; where each bucket's and
+/// class's stretch starts (see `SceneIndex::class_starts`); and their
+/// points ([`RingPoints`]): the rings in the order of their first pieces'
+/// numbers. The sweep then reads each bucket's edges, a stride's first,
+/// and their chains from one stretch of memory. Nothing else depends on the
+/// numbering: the chains and their order within a bucket are the same, and
+/// the near-field map draws the edges in an order fixed by their
+/// coordinates.
 ///
 /// The pieces are cut from the rings three times (for the bounds, the
 /// counts and the placing) instead of being held in a list in the
 /// occluders' order and then moved: each edge is written once, in its
 /// place, and no second list of them is ever held.
-fn lay_out_edges(
-    occluders: &[Occluder],
-) -> (UniformGrid, Vec<OccluderEdge>, RingPoints, CellLists) {
+fn lay_out_edges(occluders: &[Occluder]) -> (UniformGrid, Vec<OccluderEdge>, RingPoints, Vec<u32>) {
     // Every piece's last point is the first point of the next piece along
     // its ring, so the first points alone have the bounds of all the points.
     let mut bounds = Rect::EMPTY;
@@ -560,19 +542,20 @@ fn lay_out_edges(
     }
     let buckets = bucket_grid(bounds);
     let bucket = |a: DVec2| buckets.index(buckets.key(a));
-    // Pieces per bucket; per ring, its pieces and its first piece's bucket.
-    let mut fill = vec![0u32; buckets.len() + 1];
+    let slot = |a: DVec2, ring_pos: u32| 3 * bucket(a) + stride_class(ring_pos);
+    // Pieces per bucket and class; per ring, its pieces and its first
+    // piece's bucket.
+    let mut fill = vec![0u32; 3 * buckets.len() + 1];
     let mut rings: Vec<(u32, u32)> = Vec::new();
     let mut rings_from = vec![0u32; buckets.len() + 1];
     for (_, ring) in occluder_rings(occluders) {
         let mut pieces = 0u32;
         let mut head = 0;
         for a in piece_starts(ring) {
-            let b = bucket(a);
             if pieces == 0 {
-                head = b;
+                head = bucket(a);
             }
-            fill[b + 1] += 1;
+            fill[slot(a, pieces) + 1] += 1;
             pieces += 1;
         }
         if pieces > 0 {
@@ -580,15 +563,17 @@ fn lay_out_edges(
             rings_from[head + 1] += 1;
         }
     }
+    for k in 0..3 * buckets.len() {
+        fill[k + 1] += fill[k];
+    }
     for b in 0..buckets.len() {
-        fill[b + 1] += fill[b];
         rings_from[b + 1] += rings_from[b];
     }
-    let count = fill[buckets.len()] as usize;
+    let count = fill[3 * buckets.len()] as usize;
     // Where each ring's points go: rings by their first piece's bucket,
     // in the occluders' order within a bucket (the order of their first
-    // pieces' numbers), each ring's points followed by its first
-    // MAX_CHAIN_PIECES points again.
+    // pieces' numbers: a first piece is of class 0), each ring's points
+    // followed by its first MAX_CHAIN_PIECES points again.
     let mut ring_order = vec![0u32; rings.len()];
     for (r, &(_, head)) in rings.iter().enumerate() {
         let slot = &mut rings_from[head as usize];
@@ -617,9 +602,9 @@ fn lay_out_edges(
         let mut previous: Option<usize> = None;
         let mut ring_pos = 0u32;
         for a in piece_starts(ring) {
-            let slot = &mut fill[bucket(a)];
-            let e = *slot as usize;
-            *slot += 1;
+            let next_free = &mut fill[slot(a, ring_pos)];
+            let e = *next_free as usize;
+            *next_free += 1;
             let at = points_at[r] + ring_pos as usize;
             points[at] = a;
             start[e] = at as u32;
@@ -646,12 +631,22 @@ fn lay_out_edges(
             r += 1;
         }
     }
-    // Each bucket's pieces now end where `fill` stands: the lists of the
-    // edges starting in each bucket are the stretches between.
+    // Each bucket's and class's pieces now end where `fill` stands, which
+    // is where the next ones start.
     fill.pop();
     fill.insert(0, 0);
-    let starts = CellLists::numbered_by_cell(fill);
-    (buckets, edges, RingPoints { points, start }, starts)
+    (buckets, edges, RingPoints { points, start }, fill)
+}
+
+/// The longest stride a chain may start at a piece with, by the piece's
+/// position on its ring, as a class: 0 for stride 4 (a multiple of 4), 1
+/// for stride 2 (a multiple of 2), 2 for stride 1.
+fn stride_class(ring_pos: u32) -> usize {
+    match ring_pos {
+        p if p.is_multiple_of(4) => 0,
+        p if p.is_multiple_of(2) => 1,
+        _ => 2,
+    }
 }
 
 /// Every pixel whose centre lies inside the footprint or within half a
@@ -994,8 +989,11 @@ mod tests {
         assert!(numbered.is_sorted());
         assert!(numbered.windows(2).any(|w| w[0] != w[1]));
         for b in 0..index.buckets.len() {
-            let mut listed = index.bucket_starts(b).to_vec();
-            listed.sort_unstable();
+            let listed: Vec<u32> = index.bucket_starts(b).collect();
+            let class = |e: u32| stride_class(index.edges[e as usize].ring_pos);
+            // Those of stride 4 first, then 2, then 1 (the strided lists'
+            // contents are tested in tests/bake/skip_hidden.rs).
+            assert!(listed.iter().map(|&e| class(e)).is_sorted());
             let want: Vec<u32> = (0..index.edges.len() as u32)
                 .filter(|&e| bucket_of(e) == b)
                 .collect();

@@ -1044,7 +1044,7 @@ fn queue_bucket_chains(
     // each edge.
     if let Some(stride) = stride {
         let pieces = stride + 1;
-        for &e in index.bucket_starts_strided(bucket, stride) {
+        for e in index.bucket_starts_strided(bucket, stride) {
             if index.edges[e as usize].height > eye {
                 chains.push(e, pieces, bucket as u32, || {
                     chain_reach(index, v, e, pieces)
@@ -1053,7 +1053,7 @@ fn queue_bucket_chains(
         }
         return;
     }
-    for &e in index.bucket_starts(bucket) {
+    for e in index.bucket_starts(bucket) {
         let edge = &index.edges[e as usize];
         let stride = edge_stride(vc, index.edge_first_point(e));
         if !edge.ring_pos.is_multiple_of(stride) || edge.height <= eye {

@@ -223,11 +223,9 @@ fn the_strided_start_lists_hold_exactly_the_starts_of_their_stride() {
         for (k, stride) in [1u32, 2, 4].into_iter().enumerate() {
             let mut want: Vec<u32> = index
                 .bucket_starts(b)
-                .iter()
-                .copied()
                 .filter(|&e| index.edges[e as usize].ring_pos.is_multiple_of(stride))
                 .collect();
-            let mut got = index.bucket_starts_strided(b, stride).to_vec();
+            let mut got: Vec<u32> = index.bucket_starts_strided(b, stride).collect();
             want.sort_unstable();
             got.sort_unstable();
             assert_eq!(got, want, "bucket {b}, stride {stride}");
