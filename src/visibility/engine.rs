@@ -886,9 +886,6 @@ impl<'a> VisibilityEngine<'a> {
     }
 }
 
-/// Refuse, before building anything, a scene whose indexes would not fit:
-/// an extent beyond [`MAX_EXTENT`] or object footprints covering more than
-/// [`MAX_FOOTPRINT_PIXELS`] pixels at the settings' pixel size.
 /// The objects an incremental bake solves a cell again for: those tested
 /// at every sample, and those tested only at the samples from which they
 /// lie in the directions of a change (both ascending).
@@ -972,6 +969,10 @@ impl ChangeDirections {
     }
 }
 
+/// Refuse, before building anything, a scene whose indexes would not fit:
+/// an extent beyond [`MAX_EXTENT`], object footprints covering more than
+/// [`MAX_FOOTPRINT_PIXELS`] pixels at the settings' pixel size, or
+/// occluders cut into more than [`super::index::MAX_INDEX_POINTS`] points.
 fn check_index_size(scene: &Scene, settings: &Settings) -> Result<()> {
     let mut bounds = Rect::EMPTY;
     for t in &scene.cells.triangles {
@@ -994,6 +995,20 @@ fn check_index_size(scene: &Scene, settings: &Settings) -> Result<()> {
                  coordinates or bake a smaller region",
                 bounds.width(),
                 bounds.height()
+            ),
+        ));
+    }
+    let points = SceneIndex::points_needed(&scene.occluders);
+    if points > super::index::MAX_INDEX_POINTS {
+        return Err(Error::limit(
+            "occluder pieces",
+            format!(
+                "the {} shrunk occluder levels cut into pieces of at most {} m need {points} points in the \
+                 occluder index, more than the {} it can hold; check the footprints for sides of absurd \
+                 length, or bake a smaller region",
+                scene.occluders.len(),
+                super::index::MAX_EDGE_PIECE,
+                super::index::MAX_INDEX_POINTS
             ),
         ));
     }

@@ -9,6 +9,7 @@ use crate::geometry::Occluder;
 use crate::grid::{CellLists, UniformGrid};
 use crate::model::{
     Building, Rect, cut_points, distance_to_segment, piece_count, polygon_edges, ring_crossings,
+    ring_edges,
 };
 
 /// One edge (piece) of a shrunk occluder level, with the solid on its
@@ -211,6 +212,21 @@ impl SceneIndex {
             parent,
             object_leaf,
         }
+    }
+
+    /// How many points the index of `occluders` would hold (see
+    /// [`MAX_INDEX_POINTS`]), counted without cutting or allocating.
+    pub fn points_needed(occluders: &[Occluder]) -> u64 {
+        occluder_rings(occluders)
+            .map(|(_, ring)| {
+                let pieces: u64 = ring_sides(ring).map(|(_, _, n)| n as u64).sum();
+                if pieces == 0 {
+                    0
+                } else {
+                    pieces + MAX_CHAIN_PIECES as u64
+                }
+            })
+            .sum()
     }
 
     /// Side of an edge bucket in metres.
@@ -501,17 +517,23 @@ fn occluder_rings(occluders: &[Occluder]) -> impl Iterator<Item = (f64, &[DVec2]
     })
 }
 
-/// The first points of a ring's pieces in ring order: each side cut into
-/// [`piece_count`] pieces of at most [`MAX_EDGE_PIECE`] (a piece's last
+/// Each side of a ring with the number of pieces of at most
+/// [`MAX_EDGE_PIECE`] it is cut into.
+fn ring_sides(ring: &[DVec2]) -> impl Iterator<Item = (DVec2, DVec2, usize)> + '_ {
+    ring_edges(ring).map(|(a, b)| (a, b, piece_count(a, b, MAX_EDGE_PIECE)))
+}
+
+/// The first points of a ring's pieces in ring order (a piece's last
 /// point is the next piece's first point, the ring's last piece ending at
 /// the first).
 fn piece_starts(ring: &[DVec2]) -> impl Iterator<Item = DVec2> + '_ {
-    (0..ring.len()).flat_map(move |i| {
-        let (a, b) = (ring[i], ring[(i + 1) % ring.len()]);
-        let pieces = piece_count(a, b, MAX_EDGE_PIECE);
-        cut_points(a, b, pieces).take(pieces)
-    })
+    ring_sides(ring).flat_map(|(a, b, pieces)| cut_points(a, b, pieces).take(pieces))
 }
+
+/// The most points the occluder index may hold (each piece's first point,
+/// and [`MAX_CHAIN_PIECES`] more per ring): its numbers are 32 bits wide,
+/// and at about 40 bytes a piece this is some 80 GB of index already.
+pub const MAX_INDEX_POINTS: u64 = 1 << 31;
 
 /// The edges (pieces) of every occluder ring, numbered by the bucket that
 /// holds their first point, within a bucket by the longest stride a chain

@@ -8,6 +8,7 @@ mod bench_cli;
 #[path = "../common/mod.rs"]
 mod common;
 mod flags_refused;
+mod index_limits;
 mod output_files;
 mod settings_cli;
 mod skip_hidden;
