@@ -11,8 +11,6 @@
 //! made by this build (a payload of another build is refused as such).
 #![no_main]
 
-#[path = "seal.rs"]
-mod seal;
 
 use citypvs::geometry::memo::ShapeMemo;
 use citypvs::scale::geometry_cache::{CACHE_MAGIC, CACHE_VERSION, decode, encode};
@@ -45,5 +43,5 @@ fn exercise(bytes: &[u8]) {
 
 fuzz_target!(|payload: &[u8]| {
     exercise(payload);
-    exercise(&seal::sealed(&CACHE_MAGIC, CACHE_VERSION, payload));
+    exercise(&citypvs::scale::sealed::seal(&CACHE_MAGIC, CACHE_VERSION, payload));
 });

@@ -13,8 +13,6 @@
 //! The seeds in `corpus/part` are payloads of small shards and checkpoints.
 #![no_main]
 
-#[path = "seal.rs"]
-mod seal;
 
 use citypvs::scale::part::{PART_MAGIC, PART_VERSION, Part, PartBuilder, encode_parts};
 use libfuzzer_sys::fuzz_target;
@@ -48,5 +46,5 @@ fn exercise(bytes: &[u8]) {
 
 fuzz_target!(|payload: &[u8]| {
     exercise(payload);
-    exercise(&seal::sealed(&PART_MAGIC, PART_VERSION, payload));
+    exercise(&citypvs::scale::sealed::seal(&PART_MAGIC, PART_VERSION, payload));
 });

@@ -7,7 +7,6 @@
 
 use std::collections::HashMap;
 use std::sync::Mutex;
-use std::sync::atomic::{AtomicU64, Ordering};
 
 use sha2::{Digest, Sha256};
 
@@ -83,11 +82,10 @@ pub fn hash_shape(h: &mut Sha256, shape: &[Polygon]) {
 pub struct ShapeMemo {
     on: bool,
     earlier: HashMap<ShapeKey, MultiPolygon>,
-    /// This run's keys, with the shape where it was computed (a key taken
-    /// from `earlier` keeps its shape there: no second copy).
+    /// This run's keys, one per result asked for, with the shape where it
+    /// was computed (a key taken from `earlier` keeps its shape there: no
+    /// second copy).
     made: Mutex<Vec<(ShapeKey, Option<MultiPolygon>)>>,
-    taken: AtomicU64,
-    computed: AtomicU64,
 }
 
 /// How a memo fared: results taken from the earlier run, and computed.
@@ -125,12 +123,8 @@ impl ShapeMemo {
         }
         let key = key();
         let (shape, kept) = match self.earlier.get(&key) {
-            Some(shape) => {
-                self.taken.fetch_add(1, Ordering::Relaxed);
-                (shape.clone(), None)
-            }
+            Some(shape) => (shape.clone(), None),
             None => {
-                self.computed.fetch_add(1, Ordering::Relaxed);
                 let shape = compute();
                 let kept = shape.clone();
                 (shape, Some(kept))
@@ -143,10 +137,14 @@ impl ShapeMemo {
         shape
     }
 
+    /// Counted from this run's record: a result taken keeps no shape of
+    /// its own there.
     pub fn stats(&self) -> MemoStats {
+        let made = self.made.lock().unwrap_or_else(|e| e.into_inner());
+        let computed = made.iter().filter(|(_, kept)| kept.is_some()).count() as u64;
         MemoStats {
-            taken: self.taken.load(Ordering::Relaxed),
-            computed: self.computed.load(Ordering::Relaxed),
+            taken: made.len() as u64 - computed,
+            computed,
         }
     }
 

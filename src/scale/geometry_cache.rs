@@ -15,7 +15,7 @@ use std::path::Path;
 use bincode::{Decode, Encode};
 use glam::DVec2;
 
-use super::part::{decode_sealed, write_sealed};
+use super::sealed::{decode_sealed, write_sealed};
 use crate::geometry::memo::{BUILD_TAG, MemoResults, ShapeKey};
 use crate::model::{MultiPolygon, Polygon, Ring};
 use crate::{Error, Result};
@@ -205,7 +205,6 @@ pub fn prepare_cached(
 mod tests {
     use super::*;
     use crate::geometry::memo::{MemoKey, ShapeMemo};
-    use sha2::{Digest, Sha256};
 
     fn shape(i: usize) -> MultiPolygon {
         let s = i as f64 + 0.1;
@@ -241,14 +240,7 @@ mod tests {
 
     /// The bytes of a file around a payload coded some other way.
     fn sealed(payload: Vec<u8>) -> Vec<u8> {
-        let mut bytes = super::super::part::preamble(
-            &CACHE_MAGIC,
-            CACHE_VERSION,
-            payload.len() as u64,
-            &Sha256::digest(&payload),
-        );
-        bytes.extend_from_slice(&payload);
-        bytes
+        super::super::sealed::seal(&CACHE_MAGIC, CACHE_VERSION, &payload)
     }
 
     #[test]

@@ -15,4 +15,5 @@ pub mod geometry_cache;
 pub mod part;
 pub mod rebake;
 pub mod resume;
+pub mod sealed;
 pub mod shard;

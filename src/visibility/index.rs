@@ -145,7 +145,7 @@ impl SceneIndex {
         // The edges' points are read from `ring_points`, where each is kept
         // once, and the edges are kept without them.
         let (buckets, edges, ring_points, class_starts) = lay_out_edges(occluders);
-        let starts_in = |b: usize| class_starts[3 * b]..class_starts[3 * b + 3];
+        let starts_in = |b: usize| class_stretch(&class_starts, b, 3);
         let edge_range = |i: usize| {
             let (a, b) = ring_points.edge(i as u32);
             buckets.key_range(&Rect::of_points([&a, &b]))
@@ -255,18 +255,18 @@ impl SceneIndex {
     /// exactly one bucket): those of stride 4, then of stride 2, then the
     /// rest, each class in the occluders' order.
     pub fn bucket_starts(&self, b: usize) -> std::ops::Range<u32> {
-        self.class_starts[3 * b]..self.class_starts[3 * b + 3]
+        class_stretch(&self.class_starts, b, 3)
     }
 
     /// The edges of [`SceneIndex::bucket_starts`] whose position on their
     /// ring is a multiple of `stride` (1, 2 or 4): a first stretch of them.
     pub fn bucket_starts_strided(&self, b: usize, stride: u32) -> std::ops::Range<u32> {
-        let end = match stride {
-            4 => 3 * b + 1,
-            2 => 3 * b + 2,
-            _ => 3 * b + 3,
+        let classes = match stride {
+            4 => 1,
+            2 => 2,
+            _ => 3,
         };
-        self.class_starts[3 * b]..self.class_starts[end]
+        class_stretch(&self.class_starts, b, classes)
     }
 
     /// The greatest occluder height among the edges starting in bucket `b`.
@@ -658,6 +658,12 @@ fn lay_out_edges(occluders: &[Occluder]) -> (UniformGrid, Vec<OccluderEdge>, Rin
     fill.pop();
     fill.insert(0, 0);
     (buckets, edges, RingPoints { points, start }, fill)
+}
+
+/// The edges of bucket `b` in its first `classes` stride classes (see
+/// `SceneIndex::class_starts`): a stretch of the numbering.
+fn class_stretch(class_starts: &[u32], b: usize, classes: usize) -> std::ops::Range<u32> {
+    class_starts[3 * b]..class_starts[3 * b + classes]
 }
 
 /// The longest stride a chain may start at a piece with, by the piece's
